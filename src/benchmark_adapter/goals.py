@@ -1,0 +1,176 @@
+"""Goal predicates, the goal text and the live progress block (reference §6.1, §7.1).
+
+Predicates are evaluated against agent 0's object metadata; `sliced_by` also needs the
+recorded steps (who sliced what).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from benchmark_adapter.tasks.config import GoalPredicate, TaskConfig
+
+Objects = Mapping[str, Mapping[str, Any]]  # objectId → metadata record
+Steps = Sequence[Mapping[str, Any]]  # recorded skill_result dicts
+
+
+@dataclass(frozen=True)
+class Check:
+    """One predicate's verdict."""
+
+    predicate: str
+    objectId: str
+    passed: bool
+    detail: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"predicate": self.predicate, "objectId": self.objectId, "passed": self.passed,
+                "detail": self.detail}
+
+
+def _on(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
+    obj = objs.get(g.obj)
+    parents = (obj or {}).get("parentReceptacles") or []
+    return g.receptacle in parents, f"parents={parents}"
+
+
+def _on_sliced_piece(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
+    prefix = g.source + "|"
+    for oid, o in objs.items():
+        if oid.startswith(prefix) and o["objectType"].endswith("Sliced"):
+            if g.receptacle in (o.get("parentReceptacles") or []):
+                return True, f"{oid} on {g.receptacle}"
+    return False, f"no slice of {g.source} on {g.receptacle}"
+
+
+def _flag(key: str, want: Callable[[Any, Args], bool]) -> Callable:
+    def check(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
+        value = objs[g.obj].get(key)
+        return bool(want(value, g)), f"{key}={value}"
+    return check
+
+
+def _sliced_by(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
+    sliced = bool(objs[g.obj].get("isSliced"))
+    by_agent = any(s.get("skill") == "Slice" and s.get("success") and s.get("agent") == g.agent
+                   and (s.get("args") or {}).get("objectId") == g.obj for s in steps)
+    return sliced and by_agent, f"isSliced={sliced}, sliced_by_{g.agent}={by_agent}"
+
+
+def _filled_check(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
+    o = objs[g.obj]
+    ok = bool(o.get("isFilledWithLiquid")) and (not g.liquid or o.get("fillLiquid") == g.liquid)
+    return ok, f"isFilledWithLiquid={o.get('isFilledWithLiquid')}, fillLiquid={o.get('fillLiquid')}"
+
+
+@dataclass(frozen=True)
+class Args:
+    """A predicate's arguments, aliases resolved to object ids."""
+
+    obj: str = ""
+    receptacle: str = ""
+    source: str = ""
+    agent: str = ""
+    value: Any = None
+    liquid: str = ""
+
+    @classmethod
+    def of(cls, goal: GoalPredicate, config: TaskConfig) -> Args:
+        def rid(key: str) -> str:
+            v = goal.arg(key)
+            return config.resolve(v) if isinstance(v, str) else ""
+        return cls(obj=rid("object"), receptacle=rid("receptacle"), source=rid("source"),
+                   agent=goal.arg("agent") or "", value=goal.arg("value"),
+                   liquid=goal.arg("liquid") or "")
+
+
+CHECKS: dict[str, Callable[[Objects, Args, Steps], tuple[bool, str]]] = {
+    "on": _on,
+    "on_sliced_piece": _on_sliced_piece,
+    "closed": _flag("isOpen", lambda v, g: not v),
+    "open": _flag("isOpen", lambda v, g: bool(v)),
+    "toggled": _flag("isToggled", lambda v, g: bool(v) == bool(g.value)),
+    "sliced": _flag("isSliced", lambda v, g: bool(v)),
+    "sliced_by": _sliced_by,
+    "clean": _flag("isDirty", lambda v, g: v is False),
+    "filled": _filled_check,
+    "empty": _flag("isFilledWithLiquid", lambda v, g: not v),
+    "cooked": _flag("isCooked", lambda v, g: bool(v)),
+}
+
+
+def evaluate(config: TaskConfig, objects: Sequence[Mapping[str, Any]], steps: Steps
+             ) -> dict[str, Any]:
+    """`{success, checks}` for every goal predicate; a missing object fails its check."""
+    by_id = {o["objectId"]: o for o in objects}
+    checks = [_check(goal, config, by_id, steps) for goal in config.goal_predicates]
+    return {"success": all(c.passed for c in checks), "checks": [c.to_dict() for c in checks]}
+
+
+def _check(goal: GoalPredicate, config: TaskConfig, by_id: Objects, steps: Steps) -> Check:
+    args = Args.of(goal, config)
+    subject = args.obj or args.source
+    fn = CHECKS.get(goal.predicate)
+    if fn is None:
+        return Check(goal.predicate, subject, False, f"unknown predicate {goal.predicate!r}")
+    if subject not in by_id:
+        return Check(goal.predicate, subject, False, "object missing")
+    passed, detail = fn(by_id, args, steps)
+    return Check(goal.predicate, subject, passed, detail)
+
+
+# -- natural language --------------------------------------------------------------------
+
+PHRASES: dict[str, Callable[[Callable[[str], str], Args], str]] = {
+    "on": lambda n, g: f"Put the {n(g.obj)} in the {n(g.receptacle)}",
+    "toggled": lambda n, g: f"{'Turn on' if g.value else 'Turn off'} the {n(g.obj)}",
+    "closed": lambda n, g: f"Close the {n(g.obj)}",
+    "open": lambda n, g: f"Open the {n(g.obj)}",
+    "sliced_by": lambda n, g: f"{g.agent} must slice the {n(g.obj)}",
+    "sliced": lambda n, g: f"Slice the {n(g.obj)}",
+    "on_sliced_piece": lambda n, g: f"Place a slice of {n(g.source)} on the {n(g.receptacle)}",
+    "filled": lambda n, g: f"Fill the {n(g.obj)} with {g.liquid or 'liquid'}",
+    "empty": lambda n, g: f"Empty the {n(g.obj)}",
+    "clean": lambda n, g: f"Clean the {n(g.obj)}",
+    "cooked": lambda n, g: f"Cook the {n(g.obj)}",
+}
+
+
+def goal_title(config: TaskConfig) -> str:
+    """task_name with `_` → space and only the first character capitalised."""
+    text = config.task_name.replace("_", " ")
+    return text[:1].upper() + text[1:]
+
+
+def goal_phrases(config: TaskConfig, alias_of: Mapping[str, str]) -> list[str]:
+    """One phrase per predicate, naming objects by their current menu alias."""
+    def name(object_id: str) -> str:
+        alias = alias_of.get(object_id) or object_id.split("|")[0]
+        return alias.replace("_", " ")
+
+    out = []
+    for goal in config.goal_predicates:
+        phrase = PHRASES.get(goal.predicate)
+        args = Args.of(goal, config)
+        out.append(phrase(name, args) if phrase else f"{goal.predicate} {args.obj}")
+    return out
+
+
+def goal_text(config: TaskConfig, alias_of: Mapping[str, str]) -> str:
+    """`{Title}:` then the numbered predicate phrases."""
+    lines = [f"  {i}. {p}" for i, p in enumerate(goal_phrases(config, alias_of), 1)]
+    return "\n".join([f"{goal_title(config)}:", *lines])
+
+
+def progress_text(config: TaskConfig, alias_of: Mapping[str, str], evaluation: Mapping[str, Any]
+                  ) -> str:
+    """The live progress block: `[✓]`/`[✗]` per predicate, then `k/n objectives complete.`"""
+    checks = evaluation["checks"]
+    if not checks:
+        return "  (no goal predicates)"
+    phrases = goal_phrases(config, alias_of)
+    lines = [f"  [{'✓' if c['passed'] else '✗'}] {p}" for c, p in zip(checks, phrases)]
+    done = sum(1 for c in checks if c["passed"])
+    return "\n".join([*lines, f"  {done}/{len(checks)} objectives complete."])

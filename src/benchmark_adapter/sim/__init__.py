@@ -1,0 +1,5 @@
+"""Simulator backends behind one `Controller` protocol."""
+
+from benchmark_adapter.sim.protocol import Controller, Metadata
+
+__all__ = ["Controller", "Metadata"]

@@ -1,0 +1,137 @@
+"""Per-agent metadata in AI2-THOR's schema, built lazily.
+
+Building every object's record for every agent after every native action dominates the cost
+of a step, and the executor usually reads only a few fields. So each `AgentMetadata` holds its
+scalar fields and builds `objects` on first access. The controller freezes (materialises) any
+metadata still referenced before it changes the world, so a mapping is always a snapshot of
+the moment it was returned.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+from benchmark_adapter.sim.embedded.vision import visible
+from benchmark_adapter.sim.embedded.world import AGENT_Y, SimAgent, SimObject, World
+
+
+def object_record(world: World, obj: SimObject) -> dict[str, Any]:
+    """An object's metadata without the per-agent fields (`visible`, `distance`)."""
+    a = obj.aff
+    return {
+        "objectId": obj.id, "objectType": obj.type, "name": obj.id.replace("|", "_"),
+        "position": {"x": obj.x, "y": obj.y, "z": obj.z},
+        "rotation": {"x": 0.0, "y": 0.0, "z": 0.0},
+        "pickupable": a.pickupable, "isPickedUp": obj.held_by is not None,
+        "receptacle": a.receptacle,
+        "receptacleObjectIds": list(obj.contents) if a.receptacle else None,
+        "parentReceptacles": _parents(world, obj),
+        "openable": a.openable, "isOpen": obj.is_open, "openness": 1.0 if obj.is_open else 0.0,
+        "toggleable": a.toggleable, "isToggled": obj.is_toggled,
+        "sliceable": a.sliceable, "isSliced": obj.is_sliced,
+        "dirtyable": a.dirtyable, "isDirty": obj.is_dirty,
+        "canFillWithLiquid": a.canFillWithLiquid, "isFilledWithLiquid": obj.is_filled,
+        "fillLiquid": obj.fill_liquid, "breakable": a.breakable, "isBroken": obj.is_broken,
+        "cookable": a.cookable, "isCooked": obj.is_cooked, "moveable": a.moveable,
+    }
+
+
+def _parents(world: World, obj: SimObject) -> list[str] | None:
+    chain = []
+    parent_id = obj.parent
+    while parent_id is not None:
+        chain.append(parent_id)
+        parent_id = world.objects[parent_id].parent
+    return chain or None
+
+
+class ObjectTable:
+    """Object records of the current world version, shared by every agent's metadata."""
+
+    def __init__(self, world: World) -> None:
+        self.world = world
+        self._version = -1
+        self._records: list[dict[str, Any]] = []
+
+    def records(self) -> list[dict[str, Any]]:
+        """Records for the current version (rebuilt only after the world changed)."""
+        if self._version != self.world.version:
+            self._records = [object_record(self.world, o) for o in self.world.objects.values()]
+            self._version = self.world.version
+        return self._records
+
+    def for_agent(self, agent: SimAgent) -> list[dict[str, Any]]:
+        """Records with this agent's `visible` and `distance`."""
+        world = self.world
+        out = []
+        for record, obj in zip(self.records(), world.objects.values()):
+            distance = math.hypot(obj.x - agent.x, obj.z - agent.z)
+            out.append({**record, "visible": visible(world, agent, obj), "distance": distance})
+        return out
+
+
+class AgentMetadata(Mapping[str, Any]):
+    """One agent's metadata; `objects` is built on first access."""
+
+    __slots__ = ("_table", "_agent", "_data", "_objects", "__weakref__")
+
+    def __init__(self, table: ObjectTable, agent: SimAgent, scene: str) -> None:
+        self._table, self._agent, self._objects = table, agent, None
+        held = table.world.objects.get(agent.held) if agent.held else None
+        self._data = {
+            "agentId": agent.index, "sceneName": scene, "fov": 90.0,
+            "agent": {
+                "name": agent.name,
+                "position": {"x": agent.x, "y": AGENT_Y, "z": agent.z},
+                "rotation": {"x": 0.0, "y": agent.yaw, "z": 0.0},
+                "cameraHorizon": agent.horizon, "isStanding": agent.standing,
+            },
+            "inventoryObjects": ([{"objectId": held.id, "objectType": held.type}]
+                                 if held else []),
+            "lastAction": agent.last_action, "lastActionSuccess": agent.last_success,
+            "errorMessage": agent.last_error, "actionReturn": agent.last_return,
+        }
+
+    def freeze(self) -> None:
+        """Build `objects` now, before the world changes."""
+        if self._objects is None:
+            self._objects = self._table.for_agent(self._agent)
+
+    def __getitem__(self, key: str) -> Any:
+        if key == "objects":
+            self.freeze()
+            return self._objects
+        return self._data[key]
+
+    def __iter__(self) -> Iterator[str]:
+        yield from self._data
+        yield "objects"
+
+    def __len__(self) -> int:
+        return len(self._data) + 1
+
+
+class MetadataFactory:
+    """Hands out metadata snapshots and freezes the live ones before each world change."""
+
+    def __init__(self, world: World, scene: str) -> None:
+        self.table = ObjectTable(world)
+        self.scene = scene
+        self._live: list[weakref.ref[AgentMetadata]] = []
+
+    def snapshot(self) -> list[AgentMetadata]:
+        """Every agent's metadata as of now."""
+        out = [AgentMetadata(self.table, a, self.scene) for a in self.table.world.agents]
+        self._live.extend(weakref.ref(md) for md in out)
+        return out
+
+    def before_change(self) -> None:
+        """Freeze every snapshot someone still holds."""
+        for ref in self._live:
+            md = ref()
+            if md is not None:
+                md.freeze()
+        self._live = []

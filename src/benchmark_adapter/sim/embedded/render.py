@@ -1,0 +1,264 @@
+"""Schematic egocentric frames for the embedded (symbolic) household simulator.
+
+There is no 3-D engine, so AI2-THOR-style metadata is projected onto a pinhole camera. Output is a
+pure function of the input dict: the same view always yields byte-identical PNG bytes.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import io
+import math
+import zlib
+
+from PIL import Image, ImageDraw, ImageFont
+
+MIN_SIZE = 300
+STRIP_HEIGHT = 28
+EYE_HEIGHT = 0.6  # camera above the agent's reported position (metres), roughly THOR's
+MIN_DEPTH = 0.3  # clamp depth so objects at the agent's feet do not blow up to infinity
+WALL, FLOOR, HORIZON = (226, 218, 200), (150, 132, 112), (110, 95, 80)
+# (width, height) in metres for a few big types; sizes make the scene readable, not exact.
+TYPE_SIZES = {
+    "Fridge": (0.7, 1.7), "CounterTop": (1.1, 0.12), "DiningTable": (1.0, 0.12),
+    "Cabinet": (0.5, 0.45), "Drawer": (0.45, 0.18), "Sink": (0.6, 0.2),
+    "Microwave": (0.5, 0.3), "StoveBurner": (0.3, 0.08), "Shelf": (0.8, 0.1),
+}
+Box = tuple[float, float, float, float]
+
+
+def _font(size: int = 12) -> ImageFont.ImageFont:
+    # Pillow >= 10.1 ships a scalable default font; older versions only the tiny bitmap one.
+    try:
+        return ImageFont.load_default(size=size)
+    except TypeError:
+        return ImageFont.load_default()
+
+
+def type_colour(object_type: str) -> tuple[int, int, int]:
+    """Stable colour for an object type (crc32, unlike hash(), is not salted per process)."""
+    h = zlib.crc32(object_type.encode("utf-8"))
+    hue, sat = (h % 360) / 360.0, 0.45 + ((h >> 9) % 30) / 100.0
+    r, g, b = colorsys.hsv_to_rgb(hue, sat, 0.85)
+    return int(r * 255), int(g * 255), int(b * 255)
+
+
+def object_label(obj: dict) -> str:
+    """Type plus the state words a planner cares about, e.g. ``Fridge (open)``."""
+    states = []
+    if obj.get("openable"):
+        states.append("open" if obj.get("isOpen") else "closed")
+    if obj.get("toggleable"):
+        states.append("on" if obj.get("isToggled") else "off")
+    for key, word in (("isSliced", "sliced"), ("isCooked", "cooked"), ("isDirty", "dirty")):
+        if obj.get(key):
+            states.append(word)
+    name = obj.get("objectType") or str(obj.get("objectId", "?")).split("|")[0]
+    return f"{name} ({', '.join(states)})" if states else name
+
+
+class _Camera:
+    """Pinhole camera at the agent's eye; converts world x-z-y points to screen coordinates."""
+
+    def __init__(self, view: dict, width: int, height: int):
+        agent = view.get("agent") or {}
+        pos, rot = agent.get("position") or {}, agent.get("rotation") or {}
+        self.x, self.z = float(pos.get("x", 0.0)), float(pos.get("z", 0.0))
+        self.eye = float(pos.get("y", 0.9)) + EYE_HEIGHT
+        self.yaw = math.radians(float(rot.get("y", 0.0)))
+        self.fov = min(max(float(view.get("fieldOfView", 90) or 90), 10.0), 170.0)
+        self.reach = float(view.get("visibilityDistance", 1.5) or 1.5)
+        self.w, self.h = width, height
+        self.focal = (width / 2) / math.tan(math.radians(self.fov / 2))
+        # Positive cameraHorizon looks down, which moves the world horizon up the image.
+        tilt = math.radians(float(agent.get("cameraHorizon", 0.0) or 0.0))
+        self.horizon = min(max(height / 2 - self.focal * math.tan(tilt), 0.0), float(height))
+
+    def local(self, pos: dict) -> tuple[float, float, float]:
+        """(forward, lateral, horizontal distance); yaw 0 faces +z, yaw 90 faces +x."""
+        dx, dz = float(pos.get("x", 0.0)) - self.x, float(pos.get("z", 0.0)) - self.z
+        s, c = math.sin(self.yaw), math.cos(self.yaw)
+        return dx * s + dz * c, dx * c - dz * s, math.hypot(dx, dz)
+
+    def sees(self, pos: dict) -> bool:
+        """Inside the horizontal view cone and within the visibility distance."""
+        fwd, lat, dist = self.local(pos)
+        in_cone = dist < 1e-6 or abs(math.degrees(math.atan2(lat, fwd))) <= self.fov / 2
+        return in_cone and dist <= self.reach
+
+    def project(self, pos: dict, size_m: tuple[float, float]) -> Box:
+        """Screen box of an object of the given metric size centred at ``pos``."""
+        fwd, lat, _ = self.local(pos)
+        depth = max(fwd, MIN_DEPTH)
+        cx = self.w / 2 + self.focal * lat / depth
+        cy = self.horizon + self.focal * (self.eye - float(pos.get("y", 0.9))) / depth
+        bw = min(max(self.focal * size_m[0] / depth, 10.0), self.w * 0.9)
+        bh = min(max(self.focal * size_m[1] / depth, 10.0), self.h * 0.8)
+        # Keep the whole shape on screen: a schematic view must never lose an object it lists.
+        cx = min(max(cx, bw / 2 + 2), self.w - bw / 2 - 2)
+        cy = min(max(cy, bh / 2 + 20), self.h - bh / 2 - 22)
+        return cx - bw / 2, cy - bh / 2, cx + bw / 2, cy + bh / 2
+
+
+def _hidden_in_closed(obj: dict, by_id: dict) -> bool:
+    # Contents of a closed fridge/drawer cannot be seen, even though they are in the cone.
+    for pid in obj.get("parentReceptacles") or []:
+        parent = by_id.get(pid)
+        if parent and parent.get("openable") and not parent.get("isOpen"):
+            return True
+    return False
+
+
+def _visible_items(view: dict, cam: _Camera) -> list[tuple[float, str, dict]]:
+    """(distance, kind, record) of everything to draw, farthest first (painter's order)."""
+    objects = view.get("objects") or []
+    by_id = {o.get("objectId"): o for o in objects}
+    held = {o.get("objectId") for o in view.get("inventoryObjects") or []}
+    items = []
+    for obj in objects:
+        if obj.get("isPickedUp") or obj.get("objectId") in held or not obj.get("position"):
+            continue
+        if cam.sees(obj["position"]) and not _hidden_in_closed(obj, by_id):
+            items.append((cam.local(obj["position"])[2], "object", obj))
+    for other in view.get("otherAgents") or []:
+        if other.get("position") and cam.sees(other["position"]):
+            items.append((cam.local(other["position"])[2], "agent", other))
+    # Ties broken by id/name so the drawing order never depends on input order quirks.
+    items.sort(key=lambda it: (-it[0], it[1], str(it[2].get("objectId") or it[2].get("name"))))
+    return items
+
+
+def _draw_background(draw: ImageDraw.ImageDraw, cam: _Camera) -> None:
+    draw.rectangle((0, 0, cam.w, cam.horizon), fill=WALL)
+    draw.rectangle((0, cam.horizon, cam.w, cam.h), fill=FLOOR)
+    # Floor lines converging to the centre give a sense of depth and of the camera tilt.
+    for k in range(-4, 5):
+        draw.line((cam.w / 2 + k * 12, cam.horizon, cam.w / 2 + k * cam.w / 3, cam.h),
+                  fill=(140, 122, 103))
+    draw.line((0, cam.horizon, cam.w, cam.horizon), fill=HORIZON, width=2)
+
+
+def _draw_object(draw: ImageDraw.ImageDraw, obj: dict, box: Box) -> None:
+    fill = type_colour(str(obj.get("objectType", "")))
+    outline, (x0, y0, x1, y1) = tuple(v // 2 for v in fill), box
+    # Receptacles (furniture) are boxes, portable things are round: readable at a glance.
+    shape = draw.rectangle if obj.get("receptacle") else draw.ellipse
+    shape(box, fill=fill, outline=outline, width=2)
+    if obj.get("openable") and obj.get("isOpen"):
+        # Dark interior plus a swung door on the right: "open" is readable without the label.
+        inset = min(x1 - x0, y1 - y0) * 0.15
+        draw.rectangle((x0 + inset, y0 + inset, x1 - inset, y1 - inset), fill=(45, 45, 50))
+        draw.polygon([(x1, y0), (x1 + (x1 - x0) * 0.25, y0 + 4), (x1 + (x1 - x0) * 0.25, y1 - 4),
+                      (x1, y1)], fill=fill, outline=outline)
+    elif obj.get("openable"):
+        draw.line((x1 - 6, y0 + 4, x1 - 6, y1 - 4), fill=outline, width=2)  # door handle
+    if obj.get("isSliced"):
+        for f in (0.33, 0.66):
+            draw.line((x0 + (x1 - x0) * f, y0, x0 + (x1 - x0) * f, y1), fill=(255, 255, 255))
+    if obj.get("toggleable") and obj.get("isToggled"):
+        draw.ellipse((x0 + 2, y0 + 2, x0 + 10, y0 + 10), fill=(255, 230, 40), outline=outline)
+
+
+def _draw_agent(draw: ImageDraw.ImageDraw, box: Box) -> None:
+    # A stick-robot silhouette in blue, so agents never look like household objects.
+    x0, y0, x1, y1 = box
+    cx, head = (x0 + x1) / 2, (y1 - y0) * 0.22
+    draw.ellipse((cx - head / 2, y0, cx + head / 2, y0 + head), fill=(40, 70, 160))
+    draw.polygon([(cx - head * 0.4, y0 + head), (cx + head * 0.4, y0 + head), (x1, y1), (x0, y1)],
+                 fill=(60, 100, 200), outline=(20, 40, 100))
+
+
+def _place_label(draw, text: str, box: Box, font, taken: list[Box], w: int, h: int) -> Box:
+    """Label box just above (else below) the shape, stepping away until no label overlaps."""
+    l, t, r, b = draw.textbbox((0, 0), text, font=font)
+    tw, th = r - l + 6, b - t + 4
+    x = min(max((box[0] + box[2]) / 2 - tw / 2, 1), w - tw - 1)
+    above, below = box[1] - th - 2, box[3] + 2
+    # Alternate above/below so a label never lands on top of its own (small) shape.
+    for y in (v for k in range(8) for v in (above - k * (th + 1), below + k * (th + 1))):
+        y = min(max(y, 1), h - th - 1)
+        cand = (x, y, x + tw, y + th)
+        if not any(c[0] < cand[2] and cand[0] < c[2] and c[1] < cand[3] and cand[1] < c[3]
+                   for c in taken):
+            break
+    taken.append(cand)
+    return cand
+
+
+def _draw_labels(draw, labels: list[tuple[str, Box]], font, w: int, h: int, taken: list) -> None:
+    # Labels go on top of all shapes so a near object never hides a far object's name.
+    for text, box in labels:
+        lb = _place_label(draw, text, box, font, taken, w, h)
+        draw.rectangle(lb, fill=(255, 255, 255), outline=(90, 90, 90))
+        draw.text((lb[0] + 3, lb[1] + 2), text, fill=(0, 0, 0), font=font, anchor="lt")
+
+
+def _held_box(draw, view: dict, font, w: int, h: int) -> tuple[str, Box] | None:
+    """Text and bottom-right box of the ``holding: ...`` badge, or None when empty-handed."""
+    held = [str(o.get("objectType") or o.get("objectId")) for o in view.get("inventoryObjects") or []]
+    if not held:
+        return None
+    text = "holding: " + ", ".join(held)
+    bb = draw.textbbox((0, 0), text, font=font)
+    return text, (w - (bb[2] - bb[0]) - 14, h - (bb[3] - bb[1]) - 12, w - 4, h - 4)
+
+
+def _png(img: Image.Image) -> bytes:
+    # No pnginfo and no optimisation: the bytes depend only on the pixels.
+    buf = io.BytesIO()
+    img.save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def render_agent_frame(view: dict, width: int = 300, height: int = 300) -> bytes:
+    """PNG bytes of what one agent sees (schematic first-person view, deterministic).
+
+    Objects inside the horizontal view cone and within ``visibilityDistance`` (and not held) are
+    drawn far-to-near with ``Type (state)`` labels; other agents appear as blue figures labelled
+    with their name; the held object is shown as ``holding: Type`` in the bottom-right corner.
+    Width and height are clamped up to at least 300 px.
+    """
+    w, h = max(int(width), MIN_SIZE), max(int(height), MIN_SIZE)
+    cam = _Camera(view, w, h)
+    img = Image.new("RGB", (w, h), WALL)
+    draw = ImageDraw.Draw(img)
+    font = _font()
+    _draw_background(draw, cam)
+    labels: list[tuple[str, Box]] = []
+    for _, kind, rec in _visible_items(view, cam):
+        if kind == "agent":
+            box = cam.project(rec["position"], (0.45, 1.1))
+            _draw_agent(draw, box)
+            labels.append((str(rec.get("name", "agent")), box))
+            continue
+        default = (0.45, 0.3) if rec.get("receptacle") else (0.18, 0.18)
+        box = cam.project(rec["position"], TYPE_SIZES.get(rec.get("objectType"), default))
+        _draw_object(draw, rec, box)
+        labels.append((object_label(rec), box))
+    held = _held_box(draw, view, font, w, h)
+    # The badge's area is reserved first so object labels are never hidden beneath it.
+    _draw_labels(draw, labels, font, w, h, [held[1]] if held else [])
+    if held:
+        draw.rectangle(held[1], fill=(255, 244, 190), outline=(120, 100, 30), width=2)
+        draw.text((held[1][0] + 5, held[1][1] + 4), held[0], fill=(0, 0, 0), font=font, anchor="lt")
+    return _png(img)
+
+
+def merge_agent_frames(frames: list[tuple[str, bytes]]) -> bytes:
+    """Side-by-side PNG of several agents' frames, each under a 28-px white label strip.
+
+    ``frames`` is ``[(agent_id, png_bytes), ...]``; strips are concatenated left to right in
+    the given order, the agent id drawn in black at (8, 7) of its strip (reference §6.4).
+    """
+    if not frames:
+        raise ValueError("merge_agent_frames needs at least one frame")
+    images = [(name, Image.open(io.BytesIO(data)).convert("RGB")) for name, data in frames]
+    total_w = sum(img.width for _, img in images)
+    total_h = max(img.height for _, img in images) + STRIP_HEIGHT
+    merged = Image.new("RGB", (total_w, total_h), (255, 255, 255))
+    draw, font, x = ImageDraw.Draw(merged), _font(), 0
+    for name, img in images:
+        merged.paste(img, (x, STRIP_HEIGHT))
+        draw.text((x + 8, 7), str(name), fill=(0, 0, 0), font=font)
+        x += img.width
+    return _png(merged)

@@ -1,0 +1,90 @@
+"""What an agent can see, and the poses from which an object can be seen.
+
+An object is visible when it lies within the visibility distance (horizontally), inside the
+camera's 90° horizontal field of view, inside its vertical field of view given the camera
+horizon, and is not shut inside a closed container or held by another agent.
+"""
+
+from __future__ import annotations
+
+import math
+
+from benchmark_adapter.sim.embedded.world import CAMERA_HEIGHT, GRID, SimAgent, SimObject, World
+
+FIELD_OF_VIEW = 90.0
+HORIZONS = (-30.0, 0.0, 30.0, 60.0)
+YAWS = (0.0, 90.0, 180.0, 270.0)
+
+
+def bearing(from_x: float, from_z: float, to_x: float, to_z: float) -> float:
+    """Yaw (degrees, 0 = +z, 90 = +x) that faces the target from a floor point."""
+    return math.degrees(math.atan2(to_x - from_x, to_z - from_z)) % 360.0
+
+
+def angle_between(a: float, b: float) -> float:
+    """Smallest absolute difference between two yaws."""
+    d = abs(a - b) % 360.0
+    return min(d, 360.0 - d)
+
+
+def in_view(x: float, z: float, yaw: float, horizon: float, obj: SimObject,
+            max_distance: float) -> bool:
+    """Geometric visibility of an object from a camera pose."""
+    dist = math.hypot(obj.x - x, obj.z - z)
+    if dist > max_distance:
+        return False
+    if dist > 0.05 and angle_between(bearing(x, z, obj.x, obj.z), yaw) > FIELD_OF_VIEW / 2:
+        return False
+    # Pitch (positive = down) to the object's bottom and top; visible if the span meets the view.
+    flat = max(dist, 0.05)
+    low = math.degrees(math.atan2(CAMERA_HEIGHT - obj.y, flat))
+    high = math.degrees(math.atan2(CAMERA_HEIGHT - (obj.y + obj.aff.height), flat))
+    return high - FIELD_OF_VIEW / 2 <= horizon <= low + FIELD_OF_VIEW / 2
+
+
+def enclosed(world: World, obj: SimObject) -> bool:
+    """Whether the object is shut inside a closed container (at any depth)."""
+    parent_id = obj.parent
+    while parent_id is not None:
+        parent = world.objects[parent_id]
+        if parent.aff.openable and not parent.is_open:
+            return True
+        parent_id = parent.parent
+    return False
+
+
+def visible(world: World, agent: SimAgent, obj: SimObject) -> bool:
+    """AI2-THOR's `visible` flag for one agent."""
+    if obj.held_by is not None:
+        return obj.held_by == agent.index
+    if enclosed(world, obj):
+        return False
+    return in_view(agent.x, agent.z, agent.yaw, agent.horizon, obj, world.visibility_distance)
+
+
+def interactable_poses(world: World, obj: SimObject) -> list[dict]:
+    """Standing poses on walkable cells from which the object is visible (ignores agents)."""
+    if enclosed(world, obj) or obj.held_by is not None:
+        return []
+    reach = world.visibility_distance
+    cx0, cz0 = world.cell_of(obj.x, obj.z)
+    span = math.ceil(reach / GRID)
+    poses = []
+    for cx in range(cx0 - span, cx0 + span + 1):
+        for cz in range(cz0 - span, cz0 + span + 1):
+            if (cx, cz) in world.floor:
+                poses.extend(_poses_at(cx * GRID, cz * GRID, obj, reach))
+    return poses
+
+
+def _poses_at(x: float, z: float, obj: SimObject, reach: float) -> list[dict]:
+    facing = bearing(x, z, obj.x, obj.z)
+    out = []
+    for yaw in YAWS:
+        if angle_between(facing, yaw) > FIELD_OF_VIEW / 2:
+            continue
+        for horizon in HORIZONS:
+            if in_view(x, z, yaw, horizon, obj, reach):
+                out.append({"x": x, "y": 0.9, "z": z, "rotation": yaw, "horizon": horizon,
+                            "standing": True})
+    return out

@@ -1,0 +1,169 @@
+"""The embedded world's state and its grounding from a task config.
+
+Object ids are opaque except for their position: AI2-THOR encodes an object's position in its
+id (`Type|x|y|z`), and that is all the grounding reads from it (reference §10.17). Everything
+else comes from the type's affordances.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import zlib
+from dataclasses import dataclass, field
+
+from benchmark_adapter.sim.embedded.affordances import Affordances, affordances_of
+
+GRID = 0.25
+AGENT_Y = 0.9  # AI2-THOR's agent position height
+CAMERA_HEIGHT = 1.5763  # standing camera height above the floor
+AGENT_RADIUS = 0.2  # two agents collide when closer than twice this
+
+
+@dataclass
+class SimObject:
+    """One object of the world, with its mutable state."""
+
+    id: str
+    type: str
+    x: float
+    y: float
+    z: float
+    aff: Affordances
+    is_open: bool = False
+    is_toggled: bool = False
+    is_sliced: bool = False
+    is_dirty: bool = False
+    is_filled: bool = False
+    fill_liquid: str | None = None
+    is_broken: bool = False
+    is_cooked: bool = False
+    parent: str | None = None
+    contents: list[str] = field(default_factory=list)
+    held_by: int | None = None
+
+
+@dataclass
+class SimAgent:
+    """One agent: a pose on the grid and at most one held object."""
+
+    index: int
+    x: float
+    z: float
+    yaw: float = 0.0
+    horizon: float = 0.0
+    standing: bool = True
+    held: str | None = None
+    last_action: str = ""
+    last_success: bool = True
+    last_error: str = ""
+    last_return: object = None
+
+    @property
+    def name(self) -> str:
+        """AI2-THOR's agent name (`agent_k` in the benchmark is agentId k-1)."""
+        return f"agent_{self.index + 1}"
+
+
+@dataclass
+class World:
+    """Objects, agents and the walkable floor grid."""
+
+    objects: dict[str, SimObject]
+    agents: list[SimAgent]
+    floor: frozenset[tuple[int, int]]  # walkable cells, in grid units
+    visibility_distance: float = 1.5
+    version: int = 0  # bumped on every change, for caches
+
+    def cell_of(self, x: float, z: float) -> tuple[int, int]:
+        """Grid cell containing a floor point."""
+        return (round(x / GRID), round(z / GRID))
+
+    def walkable(self, x: float, z: float) -> bool:
+        """Whether an agent may stand at (x, z)."""
+        cx, cz = self.cell_of(x, z)
+        on_grid = abs(cx * GRID - x) < 1e-6 and abs(cz * GRID - z) < 1e-6
+        return on_grid and (cx, cz) in self.floor
+
+    def blocking_agent(self, x: float, z: float, ignore: int) -> SimAgent | None:
+        """Another agent whose body would overlap an agent standing at (x, z)."""
+        for other in self.agents:
+            if other.index != ignore and math.hypot(other.x - x, other.z - z) < 2 * AGENT_RADIUS:
+                return other
+        return None
+
+
+def position_from_id(object_id: str) -> tuple[float, float, float]:
+    """The position encoded in an AI2-THOR id; a stable pseudo-position if there is none."""
+    parts = object_id.split("|")
+    try:
+        return float(parts[1]), float(parts[2]), float(parts[3])
+    except (IndexError, ValueError):
+        rng = random.Random(zlib.crc32(object_id.encode()))
+        return rng.uniform(-2, 2), 0.9, rng.uniform(-2, 2)
+
+
+def type_from_id(object_id: str) -> str:
+    """The object type: the id's prefix (the last part for sliced pieces)."""
+    parts = object_id.split("|")
+    if len(parts) > 4 and parts[-1][:1].isalpha():
+        return parts[-1].split("_")[0]
+    return parts[0]
+
+
+def make_object(object_id: str) -> SimObject:
+    """An object in its default state, placed where its id says."""
+    x, y, z = position_from_id(object_id)
+    t = type_from_id(object_id)
+    return SimObject(id=object_id, type=t, x=x, y=y, z=z, aff=affordances_of(t))
+
+
+def referenced_ids(objects: dict[str, str], init_actions: list[dict]) -> list[str]:
+    """Important objects plus any object an init action names, in first-seen order."""
+    ids = list(dict.fromkeys(objects.values()))
+    for action in init_actions:
+        oid = action.get("objectId")
+        if isinstance(oid, str) and "|" in oid and oid not in ids:
+            ids.append(oid)
+    return ids
+
+
+def build_floor(objects: list[SimObject], margin: float = 1.25) -> frozenset[tuple[int, int]]:
+    """Walkable cells: the objects' bounding box plus a margin, minus furniture footprints."""
+    xs = [o.x for o in objects] or [0.0]
+    zs = [o.z for o in objects] or [0.0]
+    x0, x1 = math.floor((min(xs) - margin) / GRID), math.ceil((max(xs) + margin) / GRID)
+    z0, z1 = math.floor((min(zs) - margin) / GRID), math.ceil((max(zs) + margin) / GRID)
+    blockers = [o for o in objects if o.aff.footprint > 0]
+    cells = set()
+    for cx in range(x0, x1 + 1):
+        for cz in range(z0, z1 + 1):
+            x, z = cx * GRID, cz * GRID
+            if all(math.hypot(o.x - x, o.z - z) > o.aff.footprint for o in blockers):
+                cells.add((cx, cz))
+    return frozenset(cells)
+
+
+def place_agents(floor: frozenset[tuple[int, int]], count: int, seed: int, scene: str,
+                 min_separation: float = 0.75) -> list[SimAgent]:
+    """Agents on distinct walkable cells, chosen deterministically from the seed and scene."""
+    rng = random.Random(zlib.crc32(f"{scene}:{seed}".encode()))
+    cells = sorted(floor)
+    agents: list[SimAgent] = []
+    for cx, cz in rng.sample(cells, len(cells)):
+        x, z = cx * GRID, cz * GRID
+        if all(math.hypot(a.x - x, a.z - z) >= min_separation for a in agents):
+            agents.append(SimAgent(index=len(agents), x=x, z=z, yaw=90.0 * rng.randrange(4)))
+        if len(agents) == count:
+            return agents
+    raise ValueError(f"scene {scene}: no room for {count} agents on the floor grid")
+
+
+def ground_world(scene: str, objects: dict[str, str], init_actions: list[dict], agent_count: int,
+                 seed: int, visibility_distance: float = 1.5) -> World:
+    """Build the world of a task config: its objects, floor and agents."""
+    sim_objects = {oid: make_object(oid) for oid in referenced_ids(objects, init_actions)}
+    floor = build_floor(list(sim_objects.values()))
+    agents = place_agents(floor, agent_count, seed, scene)
+    return World(objects=sim_objects, agents=agents, floor=floor,
+                 visibility_distance=visibility_distance)

@@ -1,0 +1,70 @@
+"""Trajectory records in the reference's `trajectory.json` format (reference §9.1)."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from benchmark_adapter.sim.protocol import Metadata
+from benchmark_adapter.tasks.config import TaskConfig
+
+# Object fields the reference records per step, plus isOpen/isSliced (harmless extras that
+# make a trajectory self-explanatory).
+STATE_FIELDS = ("visible", "isDirty", "isFilledWithLiquid", "fillLiquid", "isToggled",
+                "parentReceptacles", "isOpen", "isSliced")
+
+
+def state_record(config: TaskConfig, metadata: Sequence[Metadata]) -> dict[str, Any]:
+    """The `state` of a step: important objects (agent 0's view) and every agent's hand."""
+    by_id = {o["objectId"]: o for o in metadata[0]["objects"]}
+    objects = {}
+    for alias, oid in config.init_state.objects.items():
+        obj = by_id.get(oid)
+        objects[alias] = ({"objectId": oid, **{k: obj.get(k) for k in STATE_FIELDS}}
+                          if obj else {"objectId": oid, "missing": True})
+    agents = [
+        {"agent": agent_id,
+         "inventory": [o["objectId"] for o in md["inventoryObjects"]],
+         "lastActionSuccess": bool(md["lastActionSuccess"]),
+         "errorMessage": md["errorMessage"] or ""}
+        for agent_id, md in zip(config.agent_ids, metadata)
+    ]
+    return {"objects": objects, "agents": agents}
+
+
+def trajectory_document(config: TaskConfig, init_trace: list[dict[str, Any]],
+                        items: list[dict[str, Any]]) -> dict[str, Any]:
+    """The whole `trajectory.json`; `final_eval` is the eval of the last item."""
+    final = items[-1]["eval"] if items else {"success": False, "checks": []}
+    return {"task_id": config.task_id, "task_config": config.to_json_dict(),
+            "init_trace": init_trace, "final_eval": final, "trajectory": items}
+
+
+def dumps(document: Mapping[str, Any]) -> str:
+    """Canonical JSON text (same document → same bytes)."""
+    return json.dumps(document, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+def write_json_atomic(path: str | Path, document: Mapping[str, Any]) -> Path:
+    """Write JSON so that a reader never sees a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(dumps(document))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def load_trajectory(path: str | Path) -> dict[str, Any]:
+    """Read a `trajectory.json` (ours or the reference's)."""
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
