@@ -45,8 +45,14 @@ class Observation:
 class Episode:
     """One task instance on one backend, recording a reference-format trajectory."""
 
-    def __init__(self, config: TaskConfig, controller: Controller | None = None, *,
-                 frames: bool = False, frame_size: int = 300) -> None:
+    def __init__(
+        self,
+        config: TaskConfig,
+        controller: Controller | None = None,
+        *,
+        frames: bool = False,
+        frame_size: int = 300,
+    ) -> None:
         if controller is None:
             from benchmark_adapter.sim.embedded import EmbeddedController
 
@@ -60,6 +66,7 @@ class Episode:
         self.items: list[dict[str, Any]] = []
         self.board: list[dict[str, Any]] = []
         self._space: ActionSpace | None = None
+        self._space_key: tuple = ()
         self._metadata: list[Metadata] = []
 
     # -- lifecycle ---------------------------------------------------------------------
@@ -76,8 +83,14 @@ class Episode:
         self.items.append(item)
         return self.observe()
 
-    def step(self, call: str, *, round_index: int | None = None, message: str | None = None,
-             decision: dict[str, Any] | None = None) -> SkillResult:
+    def step(
+        self,
+        call: str,
+        *,
+        round_index: int | None = None,
+        message: str | None = None,
+        decision: dict[str, Any] | None = None,
+    ) -> SkillResult:
         """Execute one skill call as one recorded step."""
         result = self.executor.execute(call)
         self.step_index += 1
@@ -115,7 +128,8 @@ class Episode:
         objects = self._metadata[0]["objects"]
         evaluation = self.evaluate()
         return Observation(
-            step_index=self.step_index, round_index=self.round_index,
+            step_index=self.step_index,
+            round_index=self.round_index,
             agents=self.config.agent_ids,
             goal_text=goals.goal_text(self.config, space.alias_of),
             progress_text=goals.progress_text(self.config, space.alias_of, evaluation),
@@ -133,8 +147,10 @@ class Episode:
 
     def inventories(self) -> dict[str, list[str]]:
         """Held object ids per agent."""
-        return {a: [o["objectId"] for o in md["inventoryObjects"]]
-                for a, md in zip(self.config.agent_ids, self._metadata)}
+        return {
+            a: [o["objectId"] for o in md["inventoryObjects"]]
+            for a, md in zip(self.config.agent_ids, self._metadata)
+        }
 
     def objects(self) -> list[dict[str, Any]]:
         """Agent 0's object metadata (privileged; for oracles and tools)."""
@@ -144,11 +160,20 @@ class Episode:
 
     def _refresh(self) -> None:
         self._metadata = list(self.controller.last_metadata())
-        self._space = ActionSpace.build(self.config.agent_ids, self._metadata[0]["objects"])
+        objects = self._metadata[0]["objects"]
+        # Γ only changes when an object appears, disappears or changes visibility to agent 0.
+        key = tuple((o["objectId"], o.get("visible")) for o in objects)
+        if key != self._space_key:
+            self._space = ActionSpace.build(self.config.agent_ids, objects)
+            self._space_key = key
 
     def _item(self, label: str, skill_result: dict[str, Any] | None = None) -> dict[str, Any]:
-        item: dict[str, Any] = {"step_index": self.step_index, "label": label, "image": None,
-                                "state": state_record(self.config, self._metadata)}
+        item: dict[str, Any] = {
+            "step_index": self.step_index,
+            "label": label,
+            "image": None,
+            "state": state_record(self.config, self._metadata),
+        }
         steps = [i["skill_result"] for i in self.items if "skill_result" in i]
         if skill_result is not None:  # a step's eval includes the step itself (sliced_by)
             item["skill_result"] = skill_result
@@ -157,5 +182,7 @@ class Episode:
         return item
 
     def _frames(self) -> dict[str, bytes]:
-        return {a: self.controller.frame(i, self.frame_size, self.frame_size)
-                for i, a in enumerate(self.config.agent_ids)}
+        return {
+            a: self.controller.frame(i, self.frame_size, self.frame_size)
+            for i, a in enumerate(self.config.agent_ids)
+        }

@@ -26,8 +26,12 @@ class Check:
     detail: str
 
     def to_dict(self) -> dict[str, Any]:
-        return {"predicate": self.predicate, "objectId": self.objectId, "passed": self.passed,
-                "detail": self.detail}
+        return {
+            "predicate": self.predicate,
+            "objectId": self.objectId,
+            "passed": self.passed,
+            "detail": self.detail,
+        }
 
 
 def _on(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
@@ -39,9 +43,9 @@ def _on(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
 def _on_sliced_piece(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
     prefix = g.source + "|"
     for oid, o in objs.items():
-        if oid.startswith(prefix) and o["objectType"].endswith("Sliced"):
-            if g.receptacle in (o.get("parentReceptacles") or []):
-                return True, f"{oid} on {g.receptacle}"
+        is_piece = oid.startswith(prefix) and o["objectType"].endswith("Sliced")
+        if is_piece and g.receptacle in (o.get("parentReceptacles") or []):
+            return True, f"{oid} on {g.receptacle}"
     return False, f"no slice of {g.source} on {g.receptacle}"
 
 
@@ -49,13 +53,19 @@ def _flag(key: str, want: Callable[[Any, Args], bool]) -> Callable:
     def check(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
         value = objs[g.obj].get(key)
         return bool(want(value, g)), f"{key}={value}"
+
     return check
 
 
 def _sliced_by(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
     sliced = bool(objs[g.obj].get("isSliced"))
-    by_agent = any(s.get("skill") == "Slice" and s.get("success") and s.get("agent") == g.agent
-                   and (s.get("args") or {}).get("objectId") == g.obj for s in steps)
+    by_agent = any(
+        s.get("skill") == "Slice"
+        and s.get("success")
+        and s.get("agent") == g.agent
+        and (s.get("args") or {}).get("objectId") == g.obj
+        for s in steps
+    )
     return sliced and by_agent, f"isSliced={sliced}, sliced_by_{g.agent}={by_agent}"
 
 
@@ -81,9 +91,15 @@ class Args:
         def rid(key: str) -> str:
             v = goal.arg(key)
             return config.resolve(v) if isinstance(v, str) else ""
-        return cls(obj=rid("object"), receptacle=rid("receptacle"), source=rid("source"),
-                   agent=goal.arg("agent") or "", value=goal.arg("value"),
-                   liquid=goal.arg("liquid") or "")
+
+        return cls(
+            obj=rid("object"),
+            receptacle=rid("receptacle"),
+            source=rid("source"),
+            agent=goal.arg("agent") or "",
+            value=goal.arg("value"),
+            liquid=goal.arg("liquid") or "",
+        )
 
 
 CHECKS: dict[str, Callable[[Objects, Args, Steps], tuple[bool, str]]] = {
@@ -101,8 +117,9 @@ CHECKS: dict[str, Callable[[Objects, Args, Steps], tuple[bool, str]]] = {
 }
 
 
-def evaluate(config: TaskConfig, objects: Sequence[Mapping[str, Any]], steps: Steps
-             ) -> dict[str, Any]:
+def evaluate(
+    config: TaskConfig, objects: Sequence[Mapping[str, Any]], steps: Steps
+) -> dict[str, Any]:
     """`{success, checks}` for every goal predicate; a missing object fails its check."""
     by_id = {o["objectId"]: o for o in objects}
     checks = [_check(goal, config, by_id, steps) for goal in config.goal_predicates]
@@ -146,6 +163,7 @@ def goal_title(config: TaskConfig) -> str:
 
 def goal_phrases(config: TaskConfig, alias_of: Mapping[str, str]) -> list[str]:
     """One phrase per predicate, naming objects by their current menu alias."""
+
     def name(object_id: str) -> str:
         alias = alias_of.get(object_id) or object_id.split("|")[0]
         return alias.replace("_", " ")
@@ -164,8 +182,9 @@ def goal_text(config: TaskConfig, alias_of: Mapping[str, str]) -> str:
     return "\n".join([f"{goal_title(config)}:", *lines])
 
 
-def progress_text(config: TaskConfig, alias_of: Mapping[str, str], evaluation: Mapping[str, Any]
-                  ) -> str:
+def progress_text(
+    config: TaskConfig, alias_of: Mapping[str, str], evaluation: Mapping[str, Any]
+) -> str:
     """The live progress block: `[✓]`/`[✗]` per predicate, then `k/n objectives complete.`"""
     checks = evaluation["checks"]
     if not checks:

@@ -13,10 +13,27 @@ from typing import Any
 
 from benchmark_adapter.tasks.config import TaskConfig
 
-AFFORDANCE_FLAGS = ("pickupable", "receptacle", "openable", "toggleable", "sliceable",
-                    "dirtyable", "canFillWithLiquid", "breakable", "moveable")
-EXPLORE_DIRECTIONS = ("forward", "back", "left", "right", "turn_left", "turn_right",
-                      "look_up", "look_down")
+AFFORDANCE_FLAGS = (
+    "pickupable",
+    "receptacle",
+    "openable",
+    "toggleable",
+    "sliceable",
+    "dirtyable",
+    "canFillWithLiquid",
+    "breakable",
+    "moveable",
+)
+EXPLORE_DIRECTIONS = (
+    "forward",
+    "back",
+    "left",
+    "right",
+    "turn_left",
+    "turn_right",
+    "look_up",
+    "look_down",
+)
 ARGUMENT_FREE = frozenset({"Explore", "Wait", "Drop"})
 
 
@@ -37,8 +54,12 @@ class MenuEntry:
 
     def to_dict(self) -> dict[str, Any]:
         """The observation's `action_menu` record."""
-        return {"action_id": self.action_id, "agent": self.agent, "name": self.name,
-                "call": self.call}
+        return {
+            "action_id": self.action_id,
+            "agent": self.agent,
+            "name": self.name,
+            "call": self.call,
+        }
 
 
 def candidate_objects(objects: Sequence[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
@@ -97,8 +118,10 @@ def _state_phrases(a: str, o: Mapping[str, Any]) -> list[tuple[str, str, tuple]]
     if o.get("dirtyable"):
         out.append((f"clean the {a}", "CleanObject", oid))
     if o.get("canFillWithLiquid"):
-        out += [(f"fill the {a} with water", "FillObjectWithLiquid", (*oid, "water")),
-                (f"empty liquid from the {a}", "EmptyLiquidFromObject", oid)]
+        out += [
+            (f"fill the {a} with water", "FillObjectWithLiquid", (*oid, "water")),
+            (f"empty liquid from the {a}", "EmptyLiquidFromObject", oid),
+        ]
     if o.get("pickupable") or o.get("moveable"):
         out += [(f"push the {a}", "PushObject", oid), (f"pull the {a}", "PullObject", oid)]
     if o.get("breakable"):
@@ -133,8 +156,9 @@ def _alias_key(alias: str) -> tuple[str, int]:
     return (base, int(n) if n.isdigit() else 1)
 
 
-def compact(space: ActionSpace, config: TaskConfig, agent0_objects: Sequence[Mapping[str, Any]]
-            ) -> list[MenuEntry]:
+def compact(
+    space: ActionSpace, config: TaskConfig, agent0_objects: Sequence[Mapping[str, Any]]
+) -> list[MenuEntry]:
     """The menu actually shown: allowed skills, D4 role gating, important objects only."""
     important = set(config.important_ids)
     parents = {o["objectId"]: o.get("parentReceptacles") or [] for o in agent0_objects}

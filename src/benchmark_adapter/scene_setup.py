@@ -12,12 +12,14 @@ from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.skills.native import find_object
 
 # Raw state-changing actions that the reference forces unless the config says otherwise.
-FORCED_BY_DEFAULT = frozenset({"DirtyObject", "CleanObject", "FillObjectWithLiquid",
-                               "EmptyLiquidFromObject"})
+FORCED_BY_DEFAULT = frozenset(
+    {"DirtyObject", "CleanObject", "FillObjectWithLiquid", "EmptyLiquidFromObject"}
+)
 
 
-def apply_init_actions(controller: Controller, actions: list[dict[str, Any]]
-                       ) -> list[dict[str, Any]]:
+def apply_init_actions(
+    controller: Controller, actions: list[dict[str, Any]]
+) -> list[dict[str, Any]]:
     """Run every init action; return the trace `[{action, lastActionSuccess, errorMessage}]`."""
     return [_apply(controller, dict(action)) for action in actions]
 
@@ -59,8 +61,9 @@ def _ensure_empty(controller: Controller, action: dict[str, Any]) -> dict[str, A
         return _trace(action, False, f"{action.get('objectId')} not present")
     if not obj.get("isFilledWithLiquid"):
         return _trace(action, True, "already satisfied")
-    own = controller.step("EmptyLiquidFromObject", agentId=0, objectId=obj["objectId"],
-                          forceAction=True)[0]
+    own = controller.step(
+        "EmptyLiquidFromObject", agentId=0, objectId=obj["objectId"], forceAction=True
+    )[0]
     return _trace(action, bool(own["lastActionSuccess"]), own["errorMessage"] or "")
 
 

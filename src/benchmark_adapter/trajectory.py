@@ -14,8 +14,16 @@ from benchmark_adapter.tasks.config import TaskConfig
 
 # Object fields the reference records per step, plus isOpen/isSliced (harmless extras that
 # make a trajectory self-explanatory).
-STATE_FIELDS = ("visible", "isDirty", "isFilledWithLiquid", "fillLiquid", "isToggled",
-                "parentReceptacles", "isOpen", "isSliced")
+STATE_FIELDS = (
+    "visible",
+    "isDirty",
+    "isFilledWithLiquid",
+    "fillLiquid",
+    "isToggled",
+    "parentReceptacles",
+    "isOpen",
+    "isSliced",
+)
 
 
 def state_record(config: TaskConfig, metadata: Sequence[Metadata]) -> dict[str, Any]:
@@ -24,24 +32,35 @@ def state_record(config: TaskConfig, metadata: Sequence[Metadata]) -> dict[str, 
     objects = {}
     for alias, oid in config.init_state.objects.items():
         obj = by_id.get(oid)
-        objects[alias] = ({"objectId": oid, **{k: obj.get(k) for k in STATE_FIELDS}}
-                          if obj else {"objectId": oid, "missing": True})
+        objects[alias] = (
+            {"objectId": oid, **{k: obj.get(k) for k in STATE_FIELDS}}
+            if obj
+            else {"objectId": oid, "missing": True}
+        )
     agents = [
-        {"agent": agent_id,
-         "inventory": [o["objectId"] for o in md["inventoryObjects"]],
-         "lastActionSuccess": bool(md["lastActionSuccess"]),
-         "errorMessage": md["errorMessage"] or ""}
+        {
+            "agent": agent_id,
+            "inventory": [o["objectId"] for o in md["inventoryObjects"]],
+            "lastActionSuccess": bool(md["lastActionSuccess"]),
+            "errorMessage": md["errorMessage"] or "",
+        }
         for agent_id, md in zip(config.agent_ids, metadata)
     ]
     return {"objects": objects, "agents": agents}
 
 
-def trajectory_document(config: TaskConfig, init_trace: list[dict[str, Any]],
-                        items: list[dict[str, Any]]) -> dict[str, Any]:
+def trajectory_document(
+    config: TaskConfig, init_trace: list[dict[str, Any]], items: list[dict[str, Any]]
+) -> dict[str, Any]:
     """The whole `trajectory.json`; `final_eval` is the eval of the last item."""
     final = items[-1]["eval"] if items else {"success": False, "checks": []}
-    return {"task_id": config.task_id, "task_config": config.to_json_dict(),
-            "init_trace": init_trace, "final_eval": final, "trajectory": items}
+    return {
+        "task_id": config.task_id,
+        "task_config": config.to_json_dict(),
+        "init_trace": init_trace,
+        "final_eval": final,
+        "trajectory": items,
+    }
 
 
 def dumps(document: Mapping[str, Any]) -> str:

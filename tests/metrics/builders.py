@@ -38,8 +38,10 @@ def make_config(
         "task_family": family,
         "scene_id": "FloorPlan201",
         "agent_count": n_agents,
-        "agents": [{"id": f"agent_{i}", "role": f"R{i}", "allowed_skills": list(skills)}
-                   for i in range(1, n_agents + 1)],
+        "agents": [
+            {"id": f"agent_{i}", "role": f"R{i}", "allowed_skills": list(skills)}
+            for i in range(1, n_agents + 1)
+        ],
         "init_state": {"objects": dict(objects or {})},
         "allowed_skills": list(skills),
         "goal_predicates": [],
@@ -69,8 +71,14 @@ def step(
         "label": f"{skill}({agent})",
         "image": None,
         "state": {"objects": objects or {}, "agents": []},
-        "skill_result": {"skill": skill, "agent": agent, "args": args, "success": ok,
-                         "errorMessage": error, "native_trace": []},
+        "skill_result": {
+            "skill": skill,
+            "agent": agent,
+            "args": args,
+            "success": ok,
+            "errorMessage": error,
+            "native_trace": [],
+        },
         "eval": {"success": False, "checks": []},
     }
     if round_index is not None:
@@ -84,11 +92,20 @@ def step(
 
 def stop(reason: str | None, status: str | None = None, **fields: Any) -> dict[str, Any]:
     """A ``policy_stop`` item carrying a decision with ``terminal_reason``."""
-    decision = {"policy": "centralized_vlm", "status": status or reason,
-                "terminal_reason": reason, **fields}
-    return {"step_index": None, "label": "policy_stop", "image": None,
-            "state": {"objects": {}, "agents": []}, "eval": {"success": False, "checks": []},
-            "policy_decision": decision}
+    decision = {
+        "policy": "centralized_vlm",
+        "status": status or reason,
+        "terminal_reason": reason,
+        **fields,
+    }
+    return {
+        "step_index": None,
+        "label": "policy_stop",
+        "image": None,
+        "state": {"objects": {}, "agents": []},
+        "eval": {"success": False, "checks": []},
+        "policy_decision": decision,
+    }
 
 
 def make_traj(
@@ -100,25 +117,42 @@ def make_traj(
     total: int = 0,
 ) -> dict[str, Any]:
     """A full trajectory: init item + ``items``; final_eval with ``passed``/``total`` checks."""
-    init = {"step_index": 0, "label": "init", "image": None,
-            "state": {"objects": {}, "agents": []}, "eval": {"success": False, "checks": []},
-            "native_trace": []}
+    init = {
+        "step_index": 0,
+        "label": "init",
+        "image": None,
+        "state": {"objects": {}, "agents": []},
+        "eval": {"success": False, "checks": []},
+        "native_trace": [],
+    }
     counter = 0
     for item in items:
         counter += "skill_result" in item
         item["step_index"] = counter
-    checks = [{"predicate": "on", "objectId": f"o{i}", "passed": i < passed, "detail": ""}
-              for i in range(total)]
-    return {"task_id": config["task_id"], "task_config": config, "init_trace": [],
-            "final_eval": {"success": success, "checks": checks},
-            "trajectory": [init, *items]}
+    checks = [
+        {"predicate": "on", "objectId": f"o{i}", "passed": i < passed, "detail": ""}
+        for i in range(total)
+    ]
+    return {
+        "task_id": config["task_id"],
+        "task_config": config,
+        "init_trace": [],
+        "final_eval": {"success": success, "checks": checks},
+        "trajectory": [init, *items],
+    }
 
 
 def placed(aliases: dict[str, str], on_buffer: list[str], buffer: str = PLATE) -> dict[str, Any]:
     """``state.objects`` where the aliases in ``on_buffer`` rest on ``buffer``."""
     return {
-        alias: {"objectId": oid, "visible": True, "isDirty": False,
-                "isFilledWithLiquid": False, "fillLiquid": None, "isToggled": None,
-                "parentReceptacles": [buffer] if alias in on_buffer else [COUNTER]}
+        alias: {
+            "objectId": oid,
+            "visible": True,
+            "isDirty": False,
+            "isFilledWithLiquid": False,
+            "fillLiquid": None,
+            "isToggled": None,
+            "parentReceptacles": [buffer] if alias in on_buffer else [COUNTER],
+        }
         for alias, oid in aliases.items()
     }

@@ -28,9 +28,9 @@ from benchmark_adapter.metrics import (
 from .builders import (
     BOX,
     CARD,
+    K_SKILLS,
     KEYCHAIN,
     KNIFE,
-    K_SKILLS,
     POTATO,
     SOFA,
     make_config,
@@ -46,23 +46,36 @@ SKILLS = ["Find", "Explore", "Wait", "PickUp", "Put", "Drop", "BreakObject"]
 def centralized_traj() -> dict:
     """Ten steps, one of most categories; worked numbers in test_centralized_general_metrics."""
     config = make_config(
-        "D1", "G", skills=SKILLS,
+        "D1",
+        "G",
+        skills=SKILLS,
         objects={"item_1": KEYCHAIN, "item_2": CARD, "target_1": SOFA, "target_2": BOX},
         constraints={"fragile_objects": [VASE], "optimal_makespan": 4},
     )
     items = [
-        step("agent_1", "Find", KEYCHAIN),                                        # 1 progress
-        step("agent_1", "PickUp", KEYCHAIN),                                      # 2 progress
-        step("agent_1", "Put", KEYCHAIN, to=SOFA, ok=False,
-             error="No valid positions to place object found"),                   # 3 affordance
-        step("agent_1", "Put", KEYCHAIN, to=SOFA),                                # 4 progress
-        step("agent_2", "Find", CARD, ok=False,
-             error=f"Could not navigate to a visible, unoccupied pose for {CARD}"),  # 5 occupancy
-        step("agent_2", "Wait"),                                                  # 6 idle_wait
-        step("agent_2", "BreakObject", VASE),                                     # 7 progress
+        step("agent_1", "Find", KEYCHAIN),  # 1 progress
+        step("agent_1", "PickUp", KEYCHAIN),  # 2 progress
+        step(
+            "agent_1",
+            "Put",
+            KEYCHAIN,
+            to=SOFA,
+            ok=False,
+            error="No valid positions to place object found",
+        ),  # 3 affordance
+        step("agent_1", "Put", KEYCHAIN, to=SOFA),  # 4 progress
+        step(
+            "agent_2",
+            "Find",
+            CARD,
+            ok=False,
+            error=f"Could not navigate to a visible, unoccupied pose for {CARD}",
+        ),  # 5 occupancy
+        step("agent_2", "Wait"),  # 6 idle_wait
+        step("agent_2", "BreakObject", VASE),  # 7 progress
         step("agent_2", "PickUp", CARD, ok=False, error=f"{CARD} is not pickupable"),  # 8 precond
-        step("agent_1", "Explore", ok=False, error="MoveAhead failed"),           # 9 action_failure
-        step("agent_1", "Slice", KEYCHAIN),                                       # 10 illegal
+        step("agent_1", "Explore", ok=False, error="MoveAhead failed"),  # 9 action_failure
+        step("agent_1", "Slice", KEYCHAIN),  # 10 illegal
         stop("max_steps", policy="harness"),
     ]
     return make_traj(config, items, success=False, passed=1, total=2)
@@ -91,8 +104,13 @@ def test_centralized_general_metrics():
     assert m.safety_violations == 1  # BreakObject on the fragile vase
     assert m.invalid_action_ratio == 0.4  # 4 failed / 10
     assert m.event_histogram == {  # sorted by name, zero categories left out
-        "action_failure": 1, "affordance_miss": 1, "idle_wait": 1, "illegal_skill": 1,
-        "occupancy_conflict": 1, "precondition_violation": 1, "progress": 4,
+        "action_failure": 1,
+        "affordance_miss": 1,
+        "idle_wait": 1,
+        "illegal_skill": 1,
+        "occupancy_conflict": 1,
+        "precondition_violation": 1,
+        "progress": 4,
     }
     assert distributed_metrics(centralized_traj()) is None
 
@@ -121,11 +139,26 @@ def test_empty_episode():
 
 
 def test_d2_success_needs_a_legal_plan():
-    config = make_config("D2", "C", objects={"container": BOX}, constraints={"precedence": [["a", "b"]]})
-    illegal = make_traj(config, [
-        step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False, error=f"{BOX} is closed; Open it first"),
-        step("agent_1", "Open", BOX),
-    ], success=True, passed=1, total=1)
+    config = make_config(
+        "D2", "C", objects={"container": BOX}, constraints={"precedence": [["a", "b"]]}
+    )
+    illegal = make_traj(
+        config,
+        [
+            step(
+                "agent_1",
+                "Put",
+                KEYCHAIN,
+                to=BOX,
+                ok=False,
+                error=f"{BOX} is closed; Open it first",
+            ),
+            step("agent_1", "Open", BOX),
+        ],
+        success=True,
+        passed=1,
+        total=1,
+    )
     m = general_metrics(illegal)
     assert (m.success, m.legal_plan, m.success_with_d2_legality_gate) == (True, False, False)
     assert score_trajectory(illegal).task_success == 0
@@ -175,14 +208,32 @@ def test_missing_eval_fields_raise(mutate, field):
 
 def distributed_traj() -> dict:
     """Two rounds of two agents (K_D3-like)."""
-    config = make_config("D3", "K", skills=K_SKILLS, objects={"item_1": POTATO, "knife": KNIFE},
-                         constraints={"resource_exclusion": [{"resource_id": KNIFE}]})
+    config = make_config(
+        "D3",
+        "K",
+        skills=K_SKILLS,
+        objects={"item_1": POTATO, "knife": KNIFE},
+        constraints={"resource_exclusion": [{"resource_id": KNIFE}]},
+    )
     items = [
         step("agent_1", "PickUp", KNIFE, round_index=1, message="I take the knife"),
-        step("agent_2", "PickUp", KNIFE, ok=False, round_index=1, message="after you",
-             error=f"{KNIFE} is already held by another agent"),
-        step("agent_1", "Find", POTATO, ok=False, round_index=2,
-             error="Could not navigate to a visible, unoccupied pose"),
+        step(
+            "agent_2",
+            "PickUp",
+            KNIFE,
+            ok=False,
+            round_index=1,
+            message="after you",
+            error=f"{KNIFE} is already held by another agent",
+        ),
+        step(
+            "agent_1",
+            "Find",
+            POTATO,
+            ok=False,
+            round_index=2,
+            error="Could not navigate to a visible, unoccupied pose",
+        ),
         step("agent_2", "Explore", ok=False, round_index=2, error="blocked"),
         stop("all_idle", policy="distributed"),
     ]
@@ -211,8 +262,14 @@ def test_distributed_without_messages_has_no_comm_efficiency():
 
 
 def test_episode_result_flat_fields():
-    r = score_trajectory(centralized_traj(), backend="litellm", models="gpt-x",
-                         planner="centralized", obs_mode="blind", prompt_suite="paper-v1")
+    r = score_trajectory(
+        centralized_traj(),
+        backend="litellm",
+        models="gpt-x",
+        planner="centralized",
+        obs_mode="blind",
+        prompt_suite="paper-v1",
+    )
     assert (r.task_id, r.cell, r.family, r.dim) == ("G_D1__FloorPlan201__seed0", "G_D1", "G", "D1")
     assert (r.agent_count, r.scene) == (2, "FloorPlan201")
     assert (r.backend, r.models, r.planner) == ("litellm", "gpt-x", "centralized")

@@ -25,16 +25,41 @@ CATEGORY_CASES = [
     ("idle_wait", step("agent_1", "Wait", ok=False, error="Pass failed")),
     ("progress", step("agent_1", "PickUp", KEYCHAIN)),
     ("redundant_noop", step("agent_1", "Open", BOX, ok=False, error="Box is ALREADY OPEN")),
-    ("occupancy_conflict", step("agent_1", "Find", BOX, ok=False,
-                                error="Could not navigate to a visible, unoccupied pose for Box")),
-    ("affordance_miss", step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False,
-                             error="No valid positions to place object found")),
-    ("concurrency_conflict", step("agent_1", "PickUp", KNIFE, ok=False,
-                                  error=f"{KNIFE} is already held by another agent")),
-    ("concurrency_conflict", step("agent_1", "PickUp", KNIFE, ok=False,
-                                  error="Knife was Already Picked Up By agent_2")),
-    ("precondition_violation", step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False,
-                                    error=f"{BOX} is closed; Open it first")),
+    (
+        "occupancy_conflict",
+        step(
+            "agent_1",
+            "Find",
+            BOX,
+            ok=False,
+            error="Could not navigate to a visible, unoccupied pose for Box",
+        ),
+    ),
+    (
+        "affordance_miss",
+        step(
+            "agent_1",
+            "Put",
+            KEYCHAIN,
+            to=BOX,
+            ok=False,
+            error="No valid positions to place object found",
+        ),
+    ),
+    (
+        "concurrency_conflict",
+        step(
+            "agent_1", "PickUp", KNIFE, ok=False, error=f"{KNIFE} is already held by another agent"
+        ),
+    ),
+    (
+        "concurrency_conflict",
+        step("agent_1", "PickUp", KNIFE, ok=False, error="Knife was Already Picked Up By agent_2"),
+    ),
+    (
+        "precondition_violation",
+        step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False, error=f"{BOX} is closed; Open it first"),
+    ),
     ("action_failure", step("agent_1", "Explore", ok=False, error="MoveAhead blocked")),
     ("action_failure", step("agent_1", "Find", BOX, ok=False, error="Object not found")),
 ]
@@ -51,12 +76,37 @@ def test_each_category(expected, item):
         # illegal beats every other test, even a no-op marker on a failed step
         ("illegal_skill", step("agent_1", "Drop", ok=False, error="x is already open")),
         # no-op beats occupancy; occupancy beats affordance; affordance beats concurrency
-        ("redundant_noop", step("agent_1", "Find", BOX, ok=False,
-                                error="already satisfied; could not navigate to a visible pose")),
-        ("occupancy_conflict", step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False,
-                                    error="unoccupied pose missing; no valid positions")),
-        ("affordance_miss", step("agent_1", "PickUp", KNIFE, ok=False,
-                                 error="no valid positions; is already held by another agent")),
+        (
+            "redundant_noop",
+            step(
+                "agent_1",
+                "Find",
+                BOX,
+                ok=False,
+                error="already satisfied; could not navigate to a visible pose",
+            ),
+        ),
+        (
+            "occupancy_conflict",
+            step(
+                "agent_1",
+                "Put",
+                KEYCHAIN,
+                to=BOX,
+                ok=False,
+                error="unoccupied pose missing; no valid positions",
+            ),
+        ),
+        (
+            "affordance_miss",
+            step(
+                "agent_1",
+                "PickUp",
+                KNIFE,
+                ok=False,
+                error="no valid positions; is already held by another agent",
+            ),
+        ),
     ],
 )
 def test_first_matching_category_wins(expected, item):
@@ -98,13 +148,19 @@ def test_allowed_skills_fall_back_to_task_level_then_unrestricted():
 
 def test_extract_steps_skips_init_and_stop_items():
     config = make_config()
-    traj = make_traj(config, [step("agent_1", "Put", KEYCHAIN, to=BOX, round_index=1,
-                                   message="hi"),
-                              step("agent_2", "Open", FRIDGE),
-                              stop("done")])
+    traj = make_traj(
+        config,
+        [
+            step("agent_1", "Put", KEYCHAIN, to=BOX, round_index=1, message="hi"),
+            step("agent_2", "Open", FRIDGE),
+            stop("done"),
+        ],
+    )
     steps = extract_steps(traj)
-    assert [(s.index, s.skill, s.agent) for s in steps] == [(1, "Put", "agent_1"),
-                                                            (2, "Open", "agent_2")]
+    assert [(s.index, s.skill, s.agent) for s in steps] == [
+        (1, "Put", "agent_1"),
+        (2, "Open", "agent_2"),
+    ]
     assert steps[0].target_id == BOX  # receptacle for Put
     assert steps[1].target_id == FRIDGE
     assert (steps[0].round_index, steps[0].message) == (1, "hi")
@@ -118,17 +174,24 @@ def test_step_taxonomy_all_categories_in_reference_order():
     assert list(taxonomy) == list(STEP_CATEGORIES)
     # 12 cases: idle_wait, concurrency_conflict and action_failure appear twice each.
     assert taxonomy == {
-        "illegal_skill": 1, "idle_wait": 2, "progress": 1, "redundant_noop": 1,
-        "occupancy_conflict": 1, "affordance_miss": 1, "concurrency_conflict": 2,
-        "precondition_violation": 1, "action_failure": 2,
+        "illegal_skill": 1,
+        "idle_wait": 2,
+        "progress": 1,
+        "redundant_noop": 1,
+        "occupancy_conflict": 1,
+        "affordance_miss": 1,
+        "concurrency_conflict": 2,
+        "precondition_violation": 1,
+        "action_failure": 2,
     }
     assert classify_steps(traj)[0] == "illegal_skill"
 
 
 def test_step_taxonomy_keeps_zero_counts():
     traj = make_traj(make_config(), [step("agent_1", "Find", BOX)])
-    assert step_taxonomy(traj) == {name: (1 if name == "progress" else 0)
-                                   for name in STEP_CATEGORIES}
+    assert step_taxonomy(traj) == {
+        name: (1 if name == "progress" else 0) for name in STEP_CATEGORIES
+    }
 
 
 def _broken(mutate):
@@ -144,14 +207,22 @@ def _broken(mutate):
         (lambda t: t.__setitem__("trajectory", {"0": {}}), "trajectory"),
         (lambda t: t.pop("task_config"), "task_config"),
         (lambda t: t["trajectory"].__setitem__(1, "oops"), "trajectory[1]"),
-        (lambda t: t["trajectory"][2]["skill_result"].pop("skill"),
-         "trajectory[2].skill_result.skill"),
-        (lambda t: t["trajectory"][1]["skill_result"].pop("agent"),
-         "trajectory[1].skill_result.agent"),
-        (lambda t: t["trajectory"][1]["skill_result"].pop("success"),
-         "trajectory[1].skill_result.success"),
-        (lambda t: t["trajectory"][1].__setitem__("skill_result", ["Find"]),
-         "trajectory[1].skill_result"),
+        (
+            lambda t: t["trajectory"][2]["skill_result"].pop("skill"),
+            "trajectory[2].skill_result.skill",
+        ),
+        (
+            lambda t: t["trajectory"][1]["skill_result"].pop("agent"),
+            "trajectory[1].skill_result.agent",
+        ),
+        (
+            lambda t: t["trajectory"][1]["skill_result"].pop("success"),
+            "trajectory[1].skill_result.success",
+        ),
+        (
+            lambda t: t["trajectory"][1].__setitem__("skill_result", ["Find"]),
+            "trajectory[1].skill_result",
+        ),
     ],
 )
 def test_missing_fields_raise_naming_the_field(mutate, field):
@@ -169,7 +240,15 @@ def test_optional_fields_may_be_missing():
     assert extract_steps(traj)[0].objects is None
 
 
-def test_non_object_trajectory_raises():
+@pytest.mark.parametrize("fn", [extract_steps, step_taxonomy])
+def test_non_object_trajectory_raises(fn):
     with pytest.raises(TrajectoryError) as info:
-        extract_steps(["not", "a", "dict"])
+        fn(["not", "a", "dict"])
     assert info.value.field == "<root>"
+
+
+def test_agent_entries_without_id_are_ignored():
+    config = make_config()
+    config["agents"].append({"role": "ghost", "allowed_skills": ["Find"]})
+    config["agents"].append("agent_3")
+    assert sorted(allowed_skills_by_agent(config)) == ["agent_1", "agent_2"]

@@ -27,10 +27,18 @@ def _pos(x: float, y: float, z: float) -> dict:
 def _obj(object_type: str, pos: dict, **state) -> dict:
     obj = {
         "objectId": f"{object_type}|{pos['x']:+.2f}|{pos['y']:+.2f}|{pos['z']:+.2f}",
-        "objectType": object_type, "position": pos, "visible": True,
-        "isOpen": False, "openable": False, "isToggled": False, "toggleable": False,
-        "isSliced": False, "isPickedUp": False, "receptacle": False,
-        "receptacleObjectIds": None, "parentReceptacles": None,
+        "objectType": object_type,
+        "position": pos,
+        "visible": True,
+        "isOpen": False,
+        "openable": False,
+        "isToggled": False,
+        "toggleable": False,
+        "isSliced": False,
+        "isPickedUp": False,
+        "receptacle": False,
+        "receptacleObjectIds": None,
+        "parentReceptacles": None,
     }
     obj.update(state)
     return obj
@@ -38,8 +46,12 @@ def _obj(object_type: str, pos: dict, **state) -> dict:
 
 def _view(objects=(), others=(), inventory=(), yaw: float = 0.0, horizon: float = 0.0) -> dict:
     return {
-        "agent": {"name": "agent_1", "position": _pos(0.0, 0.9, 0.0),
-                  "rotation": {"x": 0, "y": yaw, "z": 0}, "cameraHorizon": horizon},
+        "agent": {
+            "name": "agent_1",
+            "position": _pos(0.0, 0.9, 0.0),
+            "rotation": {"x": 0, "y": yaw, "z": 0},
+            "cameraHorizon": horizon,
+        },
         "visibilityDistance": 1.5,
         "fieldOfView": 90,
         "objects": list(objects),
@@ -59,8 +71,13 @@ def _kitchen() -> dict:
             _obj("CounterTop", _pos(0.3, 0.9, 1.0), receptacle=True),
             _obj("Tomato", _pos(0.25, 0.98, 0.9), isSliced=True),
         ],
-        others=[{"name": "agent_2", "position": _pos(0.5, 0.9, 1.2),
-                 "rotation": {"x": 0, "y": 180, "z": 0}}],
+        others=[
+            {
+                "name": "agent_2",
+                "position": _pos(0.5, 0.9, 1.2),
+                "rotation": {"x": 0, "y": 180, "z": 0},
+            }
+        ],
         inventory=[{"objectId": "Knife|+0.10|+0.90|+0.50", "objectType": "Knife"}],
         horizon=30,
     )

@@ -142,7 +142,7 @@ def test_index_missing_config(tmp_path: Path) -> None:
         tmp_path / "index.json",
         {"instances": [{"config": "configs/t1.json"}, {"task_id": "gone", "config": "x.json"}]},
     )
-    with pytest.raises(TaskConfigError, match="1 of 2 tasks not found.*gone"):
+    with pytest.raises(TaskConfigError, match=r"1 of 2 tasks not found.*gone"):
         load_tasks(index)
     assert [t.task_id for t in load_tasks(index, missing="skip")] == ["t1"]
 

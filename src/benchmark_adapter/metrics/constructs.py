@@ -85,11 +85,16 @@ def _episode(traj: Mapping[str, Any]) -> _Episode:
     config = task_config(traj)
     steps = extract_steps(traj)
     allowed = allowed_skills_by_agent(config)
-    return _Episode(config, config.get("task_constraints") or {}, steps,
-                    [classify_step(s, allowed) for s in steps])
+    return _Episode(
+        config,
+        config.get("task_constraints") or {},
+        steps,
+        [classify_step(s, allowed) for s in steps],
+    )
 
 
 # ---- D1: load balancing --------------------------------------------------------------
+
 
 def _d1_sample(ep: _Episode) -> int:
     return len(ep.steps)
@@ -99,12 +104,17 @@ def _d1_formula(ep: _Episode) -> Formula:
     counts = per_agent_actions(ep.steps)
     n, total = n_agents(ep.config), sum(counts.values())
     makespan = max(counts.values(), default=0)
-    declared = _number(ep.constraints.get("optimal_makespan"),
-                       "task_config.task_constraints.optimal_makespan")
+    declared = _number(
+        ep.constraints.get("optimal_makespan"), "task_config.task_constraints.optimal_makespan"
+    )
     reference = declared or -(-total // max(n, 1))  # ceil(total / n) when undeclared
-    evidence = {"n_agents": n, "total_steps": total, "makespan": makespan,
-                "reference_makespan": reference,
-                "reference_source": "task_constraints" if declared else "ceil_total_over_n"}
+    evidence = {
+        "n_agents": n,
+        "total_steps": total,
+        "makespan": makespan,
+        "reference_makespan": reference,
+        "reference_source": "task_constraints" if declared else "ceil_total_over_n",
+    }
     if makespan == 0 or n < 2:
         return None, evidence
     return _clip01(reference / makespan), evidence
@@ -112,35 +122,57 @@ def _d1_formula(ep: _Episode) -> Formula:
 
 # ---- D2: precedence ---------------------------------------------------------------------
 
+
 def _d2_sample(ep: _Episode) -> int:
     return sum(1 for s in ep.steps if s.success and s.skill in INTERACTION_SKILLS)
 
 
 def _container_ids(config: Mapping[str, Any]) -> list[str]:
-    objects = (config.get("init_state") or {}).get("objects") or {}
+    init_state = config.get("init_state")
+    objects = (init_state.get("objects") if isinstance(init_state, Mapping) else None) or {}
     # Case-sensitive alias test, as in the reference (released aliases are lower case).
-    return sorted({str(oid) for alias, oid in objects.items()
-                   if any(m in alias for m in CONTAINER_ALIAS_MARKERS)})
+    return sorted(
+        {
+            str(oid)
+            for alias, oid in objects.items()
+            if any(m in alias for m in CONTAINER_ALIAS_MARKERS)
+        }
+    )
 
 
 def _d2_ignored_failure(error: str) -> bool:
     # Failures that are not ordering mistakes: no-ops, pose/hand contention, empty/full hand.
-    return any(has_marker(error, m) for m in (NOOP_MARKERS, OCCUPANCY_MARKERS,
-                                              INTRINSIC_PRECONDITION_MARKERS, CONCURRENCY_MARKERS))
+    return any(
+        has_marker(error, m)
+        for m in (
+            NOOP_MARKERS,
+            OCCUPANCY_MARKERS,
+            INTRINSIC_PRECONDITION_MARKERS,
+            CONCURRENCY_MARKERS,
+        )
+    )
 
 
 def _d2_formula(ep: _Episode) -> Formula:
     if not ep.constraints.get("precedence"):
         return None, {"reason": "no task_constraints.precedence"}
     containers = _container_ids(ep.config)
-    chain = [s for s in ep.steps if s.skill in CHAIN_SKILLS
-             and (not containers or s.target_id in containers)]  # no containers: all ops
+    chain = [
+        s
+        for s in ep.steps
+        if s.skill in CHAIN_SKILLS and (not containers or s.target_id in containers)
+    ]  # no containers: all ops
     correct = sum(1 for s in chain if s.success)
     violations = sum(1 for s in chain if not s.success and not _d2_ignored_failure(s.error))
     legal = "illegal_skill" not in ep.categories and "precondition_violation" not in ep.categories
     factor = 1.0 if legal else D2_ILLEGAL_FACTOR
-    evidence = {"container_ids": containers, "correct": correct, "violations": violations,
-                "legal_plan": legal, "legality_factor": factor}
+    evidence = {
+        "container_ids": containers,
+        "correct": correct,
+        "violations": violations,
+        "legal_plan": legal,
+        "legality_factor": factor,
+    }
     if correct + violations == 0:
         return None, evidence
     return _clip01(1 - violations / (correct + violations)) * factor, evidence
@@ -148,8 +180,11 @@ def _d2_formula(ep: _Episode) -> Formula:
 
 # ---- D3: mutual exclusion ---------------------------------------------------------------
 
-_D3_KEY_NAMES = {"shared_tool": "resource_ids", "station": "lock_skills",
-                 "competitive": "resource_ids"}
+_D3_KEY_NAMES = {
+    "shared_tool": "resource_ids",
+    "station": "lock_skills",
+    "competitive": "resource_ids",
+}
 
 
 def _d3_mode(constraints: Mapping[str, Any]) -> tuple[str, frozenset[str]]:
@@ -181,8 +216,9 @@ def _d3_sample(ep: _Episode) -> int:
 
 def _d3_collisions(mode: str, access: list[Step]) -> int:
     if mode == "shared_tool":  # PickUp refused because a teammate holds the tool
-        return sum(1 for s in access if not s.success
-                   and has_marker(s.error, ("held by another agent",)))
+        return sum(
+            1 for s in access if not s.success and has_marker(s.error, ("held by another agent",))
+        )
     if mode == "station":  # any non-no-op failure of a station skill was a denial
         return sum(1 for s in access if not s.success and not has_marker(s.error, NOOP_MARKERS))
     return len(access) - len({s.target_id for s in access})  # duplicate claims
@@ -195,18 +231,28 @@ def _d3_formula(ep: _Episode) -> Formula:
     # M* is the config's *top-level* optimal_makespan (K configs only); absent => 1.0.
     reference = _number(ep.config.get("optimal_makespan"), "task_config.optimal_makespan")
     efficiency = _clip01(reference / len(ep.steps)) if reference else 1.0
-    evidence = {"mode": mode, _D3_KEY_NAMES[mode]: sorted(keys), "accesses": len(access),
-                "collisions": collisions, "contention": contention,
-                "reference_makespan": reference, "landed_steps": len(ep.steps),
-                "efficiency": efficiency}
+    evidence = {
+        "mode": mode,
+        _D3_KEY_NAMES[mode]: sorted(keys),
+        "accesses": len(access),
+        "collisions": collisions,
+        "contention": contention,
+        "reference_makespan": reference,
+        "landed_steps": len(ep.steps),
+        "efficiency": efficiency,
+    }
     return _clip01(contention * efficiency), evidence
 
 
 # ---- D4: producer-consumer ----------------------------------------------------------------
 
+
 def _buffers(constraints: Mapping[str, Any]) -> list[Mapping[str, Any]]:
-    return [b for b in constraints.get("buffer_stations") or []
-            if isinstance(b, Mapping) and b.get("objectId")]
+    return [
+        b
+        for b in constraints.get("buffer_stations") or []
+        if isinstance(b, Mapping) and b.get("objectId")
+    ]
 
 
 def _capacity(buffer: Mapping[str, Any]) -> float:
@@ -224,10 +270,16 @@ def _d4_sample(ep: _Episode) -> int:
 def _occupancy(step: Step, buffer_ids: set[str]) -> int:
     """Tracked objects resting on a buffer in the step's recorded post-step state."""
     if step.objects is None:
-        raise TrajectoryError(f"trajectory[{step.index}].state.objects",
-                              "D4 needs the recorded object state of every step")
-    return sum(1 for obj in step.objects.values() if isinstance(obj, Mapping)
-               and any(b in (obj.get("parentReceptacles") or []) for b in buffer_ids))
+        raise TrajectoryError(
+            f"trajectory[{step.index}].state.objects",
+            "D4 needs the recorded object state of every step",
+        )
+    return sum(
+        1
+        for obj in step.objects.values()
+        if isinstance(obj, Mapping)
+        and any(b in (obj.get("parentReceptacles") or []) for b in buffer_ids)
+    )
 
 
 def _d4_overflows(ep: _Episode, ids: set[str], capacity: float) -> tuple[int, int]:
@@ -236,8 +288,14 @@ def _d4_overflows(ep: _Episode, ids: set[str], capacity: float) -> tuple[int, in
         occupancy = _occupancy(step, ids)
         rises += int(occupancy > capacity and occupancy > previous)
         previous = occupancy
-    refused = sum(1 for s in ep.steps if s.skill == "Put" and not s.success
-                  and s.target_id in ids and has_marker(s.error, AFFORDANCE_MARKERS))
+    refused = sum(
+        1
+        for s in ep.steps
+        if s.skill == "Put"
+        and not s.success
+        and s.target_id in ids
+        and has_marker(s.error, AFFORDANCE_MARKERS)
+    )
     return rises, refused
 
 
@@ -246,8 +304,12 @@ def _d4_formula(ep: _Episode) -> Formula:
     if not buffers:  # no declared buffer: penalise misplacements and waits per transfer
         transfers = sum(1 for s in ep.steps if s.skill in {"Put", "PickUp"})
         misses, waits = ep.categories.count("affordance_miss"), ep.categories.count("idle_wait")
-        evidence = {"mode": "no_buffer", "transfers": transfers,
-                    "affordance_failures": misses, "wait_steps": waits}
+        evidence = {
+            "mode": "no_buffer",
+            "transfers": transfers,
+            "affordance_failures": misses,
+            "wait_steps": waits,
+        }
         return _clip01(1 - (misses + waits) / (transfers or 1)), evidence
     ids = {str(b["objectId"]) for b in buffers}
     capacity = max(_capacity(b) for b in buffers)
@@ -255,15 +317,22 @@ def _d4_formula(ep: _Episode) -> Formula:
     rises, refused = _d4_overflows(ep, ids, capacity)
     # Any Wait (even an illegal one) taken while the buffer is empty starves the consumer.
     starved = sum(1 for s in ep.steps if s.skill == "Wait" and _occupancy(s, ids) == 0)
-    evidence = {"mode": "buffer", "buffer_ids": sorted(ids), "capacity": capacity,
-                "handoffs": handoffs, "overflows": rises + refused, "occupancy_overflows": rises,
-                "refused_put_overflows": refused, "starved_waits": starved}
-    if handoffs == 0:
-        return None, evidence
+    evidence = {
+        "mode": "buffer",
+        "buffer_ids": sorted(ids),
+        "capacity": capacity,
+        "handoffs": handoffs,
+        "overflows": rises + refused,
+        "occupancy_overflows": rises,
+        "refused_put_overflows": refused,
+        "starved_waits": starved,
+    }
+    # handoffs >= MIN_SAMPLE here: the gate already turned h = 0 into not_engaged.
     return _clip01(1 - (rises + refused + starved) / handoffs), evidence
 
 
 # ---- gating ------------------------------------------------------------------------------
+
 
 def _unknown_sample(ep: _Episode) -> int:
     return _d2_sample(ep)  # the reference's default evidence: successful interactions

@@ -47,8 +47,11 @@ class PlannerStats:
 
 def policy_decisions(traj: Mapping[str, Any]) -> list[Mapping[str, Any]]:
     """Every recorded ``policy_decision`` (on steps and on ``policy_stop`` items), in order."""
-    return [item["policy_decision"] for item in trajectory_items(traj)
-            if isinstance(item.get("policy_decision"), Mapping)]
+    return [
+        item["policy_decision"]
+        for item in trajectory_items(traj)
+        if isinstance(item.get("policy_decision"), Mapping)
+    ]
 
 
 def terminal_reason(traj: Mapping[str, Any]) -> str | None:
@@ -69,8 +72,9 @@ def _planner_steps(traj: Mapping[str, Any]) -> int:
         try:
             best = max(best, int(decision.get("planner_steps") or 0))
         except (TypeError, ValueError):
-            raise TrajectoryError(f"trajectory[{i}].policy_decision.planner_steps",
-                                  "not an integer") from None
+            raise TrajectoryError(
+                f"trajectory[{i}].policy_decision.planner_steps", "not an integer"
+            ) from None
     return best
 
 

@@ -177,7 +177,8 @@ def general_metrics(traj: Mapping[str, Any]) -> GeneralMetrics:
     return GeneralMetrics(
         success=success,
         success_with_d2_legality_gate=d2_legality_gate(
-            config.get("coordination_dim"), success, legal),
+            config.get("coordination_dim"), success, legal
+        ),
         subgoal_success_rate=subgoal_success_rate(traj),
         checks=checks_summary(traj),
         legal_plan=legal,

@@ -94,8 +94,10 @@ def _check_identifiers(identifiers: Mapping[str, Any]) -> None:
     unknown = sorted(set(identifiers) - RUN_IDENTIFIERS)
     if unknown:
         # Trajectory-derived identifiers may not be overridden: they must match the scores.
-        raise TypeError(f"unknown or trajectory-derived identifiers: {', '.join(unknown)}; "
-                        f"accepted: {', '.join(sorted(RUN_IDENTIFIERS))}")
+        raise TypeError(
+            f"unknown or trajectory-derived identifiers: {', '.join(unknown)}; "
+            f"accepted: {', '.join(sorted(RUN_IDENTIFIERS))}"
+        )
 
 
 def score_trajectory(traj: Mapping[str, Any], **identifiers: Any) -> EpisodeResult:

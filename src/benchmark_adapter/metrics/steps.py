@@ -29,8 +29,16 @@ STEP_CATEGORIES: tuple[str, ...] = (
 
 # Error-text signatures, matched as case-insensitive substrings like the reference.
 NOOP_MARKERS: tuple[str, ...] = (
-    "already off", "already on", "already open", "already close", "already satisfied",
-    "already empty", "already filled", "already clean", "already sliced", "already cooked",
+    "already off",
+    "already on",
+    "already open",
+    "already close",
+    "already satisfied",
+    "already empty",
+    "already filled",
+    "already clean",
+    "already sliced",
+    "already cooked",
 )
 OCCUPANCY_MARKERS: tuple[str, ...] = ("unoccupied pose", "could not navigate to a visible")
 AFFORDANCE_MARKERS: tuple[str, ...] = ("no valid positions",)
@@ -38,16 +46,31 @@ CONCURRENCY_MARKERS: tuple[str, ...] = ("is already held by another", "already p
 # Failures intrinsic to the action itself (empty/full hand): not a *declared* ordering
 # violation, so the D2 construct ignores them (they still break legal_plan).
 INTRINSIC_PRECONDITION_MARKERS: tuple[str, ...] = (
-    "is not holding any object", "hand has something in it already",
-    "can't pick up anything", "is not pickupable",
+    "is not holding any object",
+    "hand has something in it already",
+    "can't pick up anything",
+    "is not pickupable",
 )
 #: Skills that act on an object; a failure of one of these with no known marker
 #: is a precondition violation, any other failure (Find/Explore) an action failure.
-INTERACTION_SKILLS: frozenset[str] = frozenset({
-    "PickUp", "Put", "Drop", "Open", "Close", "ToggleOn", "ToggleOff", "Slice",
-    "CleanObject", "FillObjectWithLiquid", "EmptyLiquidFromObject",
-    "PushObject", "PullObject", "BreakObject",
-})
+INTERACTION_SKILLS: frozenset[str] = frozenset(
+    {
+        "PickUp",
+        "Put",
+        "Drop",
+        "Open",
+        "Close",
+        "ToggleOn",
+        "ToggleOff",
+        "Slice",
+        "CleanObject",
+        "FillObjectWithLiquid",
+        "EmptyLiquidFromObject",
+        "PushObject",
+        "PullObject",
+        "BreakObject",
+    }
+)
 
 
 def has_marker(text: str | None, markers: tuple[str, ...]) -> bool:

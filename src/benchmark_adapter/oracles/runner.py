@@ -20,13 +20,19 @@ def oracle_plan(config: TaskConfig) -> Plan:
     """The reference plan for the config's cell."""
     plan = ORACLE_PLANS.get(config.cell)
     if plan is None:
-        raise NoOraclePlan(f"{config.task_id}: no oracle plan for cell {config.cell} "
-                           f"(known: {', '.join(sorted(ORACLE_PLANS))})")
+        raise NoOraclePlan(
+            f"{config.task_id}: no oracle plan for cell {config.cell} "
+            f"(known: {', '.join(sorted(ORACLE_PLANS))})"
+        )
     return plan(config)
 
 
-def run_oracle(config: TaskConfig, controller: Controller | None = None,
-               max_steps: int = VALIDATION_MAX_STEPS, frames: bool = False) -> dict[str, Any]:
+def run_oracle(
+    config: TaskConfig,
+    controller: Controller | None = None,
+    max_steps: int = VALIDATION_MAX_STEPS,
+    frames: bool = False,
+) -> dict[str, Any]:
     """Run the cell's oracle; return the trajectory document."""
     episode = Episode(config, controller, frames=frames)
     episode.reset()
@@ -42,7 +48,14 @@ def run_oracle(config: TaskConfig, controller: Controller | None = None,
             next_call = plan.send(result)
     except StopIteration:
         pass
-    episode.stop({"policy": "oracle", "backend": episode.backend, "model": None,
-                  "step_index": episode.step_index, "status": reason,
-                  "terminal_reason": reason})
+    episode.stop(
+        {
+            "policy": "oracle",
+            "backend": episode.backend,
+            "model": None,
+            "step_index": episode.step_index,
+            "status": reason,
+            "terminal_reason": reason,
+        }
+    )
     return episode.finish()

@@ -4,5 +4,12 @@ from benchmark_adapter.skills.calls import CallSyntaxError, SkillCall, agent_ind
 from benchmark_adapter.skills.executor import SKILLS, SkillExecutor
 from benchmark_adapter.skills.result import SkillResult
 
-__all__ = ["SKILLS", "CallSyntaxError", "SkillCall", "SkillExecutor", "SkillResult",
-           "agent_index", "parse_call"]
+__all__ = [
+    "SKILLS",
+    "CallSyntaxError",
+    "SkillCall",
+    "SkillExecutor",
+    "SkillResult",
+    "agent_index",
+    "parse_call",
+]

@@ -73,8 +73,9 @@ def _put(s: NativeSession, call: SkillCall) -> SkillResult:
     if held is None:
         return s.result.fail("Agent is not holding any object")
     s.result.args = {"objectId": held["objectId"], "receptacleId": rid}
-    refusal = (_checked(s, held["objectId"], "", "") or
-               _checked(s, rid, "receptacle", "a receptacle"))
+    refusal = _checked(s, held["objectId"], "", "") or _checked(
+        s, rid, "receptacle", "a receptacle"
+    )
     if refusal:
         return s.result.fail(refusal)
     receptacle = s.object(rid)
@@ -89,6 +90,7 @@ def _drop(s: NativeSession, call: SkillCall) -> SkillResult:
 
 def _simple(action: str, flag: str, what: str, force: bool) -> Skill:
     """A skill that checks one affordance and issues one native action on its object."""
+
     def skill(s: NativeSession, call: SkillCall) -> SkillResult:
         oid = call.args[0]
         refusal = _checked(s, oid, flag, what)
@@ -96,6 +98,7 @@ def _simple(action: str, flag: str, what: str, force: bool) -> Skill:
             return s.result.fail(refusal)
         extra = {"forceAction": True} if force else {}
         return s.finish(s.act(action, objectId=oid, **extra))
+
     return skill
 
 
@@ -125,11 +128,16 @@ def _push(action: str) -> Skill:
         if refusal:
             return s.result.fail(refusal)
         return s.finish(s.act(action, objectId=oid, moveMagnitude=magnitude))
+
     return skill
 
 
 SKILLS: dict[str, Skill] = {
-    "Find": _find, "Explore": _explore, "Wait": _wait, "PickUp": _pickup, "Put": _put,
+    "Find": _find,
+    "Explore": _explore,
+    "Wait": _wait,
+    "PickUp": _pickup,
+    "Put": _put,
     "Drop": _drop,
     "Open": _simple("OpenObject", "openable", "openable", True),
     "Close": _simple("CloseObject", "openable", "openable", True),
@@ -139,7 +147,8 @@ SKILLS: dict[str, Skill] = {
     "CleanObject": _simple("CleanObject", "dirtyable", "dirtyable", False),
     "FillObjectWithLiquid": _fill,
     "EmptyLiquidFromObject": _simple("EmptyLiquidFromObject", "", "", False),
-    "PushObject": _push("PushObject"), "PullObject": _push("PullObject"),
+    "PushObject": _push("PushObject"),
+    "PullObject": _push("PullObject"),
     "BreakObject": _simple("BreakObject", "breakable", "breakable", False),
 }
 # Skills whose first argument is an object id (the others take none or a direction).
@@ -180,5 +189,5 @@ class SkillExecutor:
             if session.agent >= len(session.metadata):
                 return result.fail(f"Unknown agent {parsed.agent}")
             return skill(session, parsed)
-        except Exception as exc:  # the reference turns any error inside a skill into a failure
+        except Exception as exc:  # noqa: BLE001 -  # the reference turns any error inside a skill into a failure
             return result.fail(repr(exc))

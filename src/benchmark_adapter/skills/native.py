@@ -20,11 +20,13 @@ class NativeSession:
         """Run `action` as this agent; return the acting agent's metadata after it."""
         self.metadata = self.controller.step(action, agentId=self.agent, **kwargs)
         own = self.metadata[self.agent]
-        self.result.native_trace.append({
-            "action": {"action": action, "agentId": self.agent, **kwargs},
-            "lastActionSuccess": bool(own["lastActionSuccess"]),
-            "errorMessage": own["errorMessage"] or "",
-        })
+        self.result.native_trace.append(
+            {
+                "action": {"action": action, "agentId": self.agent, **kwargs},
+                "lastActionSuccess": bool(own["lastActionSuccess"]),
+                "errorMessage": own["errorMessage"] or "",
+            }
+        )
         return own
 
     def finish(self, own: Metadata) -> SkillResult:

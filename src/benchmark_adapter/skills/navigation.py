@@ -35,11 +35,13 @@ def find(session: NativeSession, object_id: str) -> SkillResult:
         return session.finish(session.me)
     session.act("TeleportFull", **start)
     return session.result.fail(
-        last_error or f"Could not navigate to a visible, unoccupied pose for {object_id}")
+        last_error or f"Could not navigate to a visible, unoccupied pose for {object_id}"
+    )
 
 
-def _fallback(session: NativeSession, object_id: str, others: list[tuple[float, float]],
-              last_error: str) -> tuple[bool, str]:
+def _fallback(
+    session: NativeSession, object_id: str, others: list[tuple[float, float]], last_error: str
+) -> tuple[bool, str]:
     """Reachable positions nearest the object, facing it, trying a few camera horizons."""
     obj = session.object(object_id)
     own = session.act("GetReachablePositions")
@@ -56,8 +58,15 @@ def _fallback(session: NativeSession, object_id: str, others: list[tuple[float, 
             continue
         yaw = math.degrees(math.atan2(target["x"] - p["x"], target["z"] - p["z"])) % 360.0
         for horizon in horizons:
-            own = session.act("TeleportFull", x=p["x"], y=p["y"], z=p["z"], rotation=yaw,
-                              horizon=horizon, standing=True)
+            own = session.act(
+                "TeleportFull",
+                x=p["x"],
+                y=p["y"],
+                z=p["z"],
+                rotation=yaw,
+                horizon=horizon,
+                standing=True,
+            )
             if _sees(own, object_id):
                 return True, last_error
             last_error = own["errorMessage"] or last_error
@@ -73,13 +82,25 @@ def _sees(own: Mapping[str, Any], object_id: str) -> bool:
 
 def _pose(agent: Mapping[str, Any]) -> dict[str, Any]:
     p = agent["position"]
-    return {"x": p["x"], "y": p["y"], "z": p["z"], "rotation": agent["rotation"]["y"],
-            "horizon": agent["cameraHorizon"], "standing": agent.get("isStanding", True)}
+    return {
+        "x": p["x"],
+        "y": p["y"],
+        "z": p["z"],
+        "rotation": agent["rotation"]["y"],
+        "horizon": agent["cameraHorizon"],
+        "standing": agent.get("isStanding", True),
+    }
 
 
 def _teleport_args(pose: Mapping[str, Any]) -> dict[str, Any]:
-    return {"x": pose["x"], "y": pose["y"], "z": pose["z"], "rotation": pose["rotation"],
-            "horizon": pose["horizon"], "standing": pose.get("standing", True)}
+    return {
+        "x": pose["x"],
+        "y": pose["y"],
+        "z": pose["z"],
+        "rotation": pose["rotation"],
+        "horizon": pose["horizon"],
+        "standing": pose.get("standing", True),
+    }
 
 
 def _other_positions(session: NativeSession) -> list[tuple[float, float]]:

@@ -24,6 +24,11 @@ class SkillResult:
 
     def to_dict(self) -> dict[str, Any]:
         """The reference's `skill_result` record."""
-        return {"skill": self.skill, "agent": self.agent, "args": dict(self.args),
-                "success": self.success, "errorMessage": self.errorMessage,
-                "native_trace": list(self.native_trace)}
+        return {
+            "skill": self.skill,
+            "agent": self.agent,
+            "args": dict(self.args),
+            "success": self.success,
+            "errorMessage": self.errorMessage,
+            "native_trace": list(self.native_trace),
+        }

@@ -101,7 +101,7 @@ class TaskConfig(_Open):
                         f"goal_predicates[{i}].{key}: alias {value!r} is not defined in "
                         "init_state.objects"
                     )
-        for item in (self.assignment or {}):
+        for item in self.assignment or {}:
             if item not in objects:
                 raise ValueError(
                     f"assignment.{item}: alias {item!r} is not defined in init_state.objects"

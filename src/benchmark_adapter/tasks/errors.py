@@ -87,6 +87,8 @@ def _split_field(message: str) -> tuple[str | None, str]:
 
 def _is_scalar(value: Any) -> bool:
     # Only small values are echoed; dumping a whole nested object would drown the message.
-    return value is None or isinstance(value, (bool, int, float)) or (
-        isinstance(value, str) and len(value) <= 60
+    return (
+        value is None
+        or isinstance(value, (bool, int, float))
+        or (isinstance(value, str) and len(value) <= 60)
     )

@@ -94,7 +94,9 @@ def _ids_for(name: str, sets: EvalSets, by_id: Mapping[str, TaskConfig]) -> list
     known = "; ".join(
         f"{category}: {', '.join(sets[category])}" for category in CATEGORIES if sets[category]
     )
-    raise TaskConfigError("eval_sets", f"unknown eval set or task id {name!r} ({known or 'no sets'})")
+    raise TaskConfigError(
+        "eval_sets", f"unknown eval set or task id {name!r} ({known or 'no sets'})"
+    )
 
 
 def _merged_sets(tasks: Sequence[TaskConfig], index: IndexSource | None) -> EvalSets:

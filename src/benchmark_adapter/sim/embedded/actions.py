@@ -36,8 +36,10 @@ def _reachable_target(world: World, agent: SimAgent, kw: dict[str, Any]) -> SimO
     """The target object, which a non-forced action must see from where the agent stands."""
     obj = _target(world, kw)
     if not kw.get("forceAction") and not visible(world, agent, obj):
-        raise ActionFailed(f"{obj.id} is not interactable and (perhaps it is occluded by "
-                           "something or too far away).")
+        raise ActionFailed(
+            f"{obj.id} is not interactable and (perhaps it is occluded by "
+            "something or too far away)."
+        )
     return obj
 
 
@@ -70,10 +72,12 @@ def sync_held(world: World, agent: SimAgent) -> None:
 
 # -- object interaction -------------------------------------------------------------------
 
+
 def pickup(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
     obj = _reachable_target(world, agent, kw)
-    _require(agent.held is None,
-             "Agent hand has something in it already! Can't pick up anything else")
+    _require(
+        agent.held is None, "Agent hand has something in it already! Can't pick up anything else"
+    )
     _require(obj.aff.pickupable, f"{obj.id} is not pickupable")
     if obj.held_by is not None:
         raise ActionFailed(f"{obj.id} is already picked up by agent_{obj.held_by + 1}")
@@ -89,8 +93,10 @@ def put(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
     held = world.objects[agent.held]
     _require(receptacle.aff.receptacle, f"{receptacle.id} is not a receptacle")
     _require(receptacle.id != held.id, f"Cannot place {held.id} in itself")
-    _require(not (receptacle.aff.openable and not receptacle.is_open),
-             f"Target receptacle {receptacle.id} is closed")
+    _require(
+        not (receptacle.aff.openable and not receptacle.is_open),
+        f"Target receptacle {receptacle.id} is closed",
+    )
     if len(receptacle.contents) >= receptacle.aff.capacity:
         raise ActionFailed("No valid positions to place object found")
     held.held_by, agent.held = None, None
@@ -115,6 +121,7 @@ def _set_open(is_open: bool) -> Handler:
         if obj.type == "Fridge" and obj.contents and not is_open:
             raise ActionFailed("Object failed to open/close successfully")
         obj.is_open = is_open
+
     return handler
 
 
@@ -125,6 +132,7 @@ def _set_toggle(on: bool) -> Handler:
         word = "on" if on else "off"
         _require(obj.is_toggled != on, f"can't toggle object {word} if it's already {word}!")
         obj.is_toggled = on
+
     return handler
 
 
@@ -135,8 +143,15 @@ def slice_object(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
     obj.is_sliced = True
     for i in range(SLICE_PIECES.get(obj.type, 2)):
         piece_type = f"{obj.type}Sliced"
-        piece = SimObject(id=f"{obj.id}|{piece_type}_{i}", type=piece_type, x=obj.x, y=obj.y,
-                          z=obj.z, aff=affordances_of(piece_type), parent=obj.parent)
+        piece = SimObject(
+            id=f"{obj.id}|{piece_type}_{i}",
+            type=piece_type,
+            x=obj.x,
+            y=obj.y,
+            z=obj.z,
+            aff=affordances_of(piece_type),
+            parent=obj.parent,
+        )
         world.objects[piece.id] = piece
         if obj.parent is not None:
             world.objects[obj.parent].contents.append(piece.id)
@@ -179,6 +194,7 @@ def _push(sign: float) -> Handler:
         step = sign * min(float(kw.get("moveMagnitude", 150.0)) / 1500.0, 0.25)
         obj.x += step * math.sin(yaw)
         obj.z += step * math.cos(yaw)
+
     return handler
 
 
@@ -190,6 +206,7 @@ def break_object(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
 
 
 # -- navigation ---------------------------------------------------------------------------
+
 
 def _stand(world: World, agent: SimAgent, x: float, z: float) -> None:
     x, z = round(x, 4), round(z, 4)
@@ -216,24 +233,32 @@ def _move(offset: float) -> Handler:
     def handler(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         magnitude = float(kw.get("moveMagnitude", GRID))
         yaw = math.radians(agent.yaw + offset)
-        _stand(world, agent, agent.x + magnitude * round(math.sin(yaw)),
-               agent.z + magnitude * round(math.cos(yaw)))
+        _stand(
+            world,
+            agent,
+            agent.x + magnitude * round(math.sin(yaw)),
+            agent.z + magnitude * round(math.cos(yaw)),
+        )
+
     return handler
 
 
 def _rotate(sign: float) -> Handler:
     def handler(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         agent.yaw = (agent.yaw + sign * float(kw.get("degrees", 90.0))) % 360.0
+
     return handler
 
 
 def _look(sign: float) -> Handler:
     def handler(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         horizon = agent.horizon + sign * float(kw.get("degrees", 30.0))
-        _require(MIN_HORIZON <= horizon <= MAX_HORIZON,
-                 f"can't look {'down' if sign > 0 else 'up'} beyond {horizon - sign * 30:g} "
-                 "degrees")
+        _require(
+            MIN_HORIZON <= horizon <= MAX_HORIZON,
+            f"can't look {'down' if sign > 0 else 'up'} beyond {horizon - sign * 30:g} degrees",
+        )
         agent.horizon = horizon
+
     return handler
 
 
@@ -251,16 +276,34 @@ def no_op(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
 
 
 HANDLERS: dict[str, Handler] = {
-    "PickupObject": pickup, "PutObject": put, "DropHandObject": drop,
-    "OpenObject": _set_open(True), "CloseObject": _set_open(False),
-    "ToggleObjectOn": _set_toggle(True), "ToggleObjectOff": _set_toggle(False),
-    "SliceObject": slice_object, "CleanObject": clean, "DirtyObject": dirty,
-    "FillObjectWithLiquid": fill, "EmptyLiquidFromObject": empty,
-    "PushObject": _push(1.0), "PullObject": _push(-1.0), "BreakObject": break_object,
-    "TeleportFull": teleport, "MoveAhead": _move(0.0), "MoveBack": _move(180.0),
-    "MoveRight": _move(90.0), "MoveLeft": _move(-90.0),
-    "RotateRight": _rotate(1.0), "RotateLeft": _rotate(-1.0),
-    "LookDown": _look(1.0), "LookUp": _look(-1.0),
-    "GetReachablePositions": reachable_positions, "GetInteractablePoses": poses,
-    "Pass": no_op, "Done": no_op, "InitialRandomSpawn": no_op, "AdvancePhysicsStep": no_op,
+    "PickupObject": pickup,
+    "PutObject": put,
+    "DropHandObject": drop,
+    "OpenObject": _set_open(True),
+    "CloseObject": _set_open(False),
+    "ToggleObjectOn": _set_toggle(True),
+    "ToggleObjectOff": _set_toggle(False),
+    "SliceObject": slice_object,
+    "CleanObject": clean,
+    "DirtyObject": dirty,
+    "FillObjectWithLiquid": fill,
+    "EmptyLiquidFromObject": empty,
+    "PushObject": _push(1.0),
+    "PullObject": _push(-1.0),
+    "BreakObject": break_object,
+    "TeleportFull": teleport,
+    "MoveAhead": _move(0.0),
+    "MoveBack": _move(180.0),
+    "MoveRight": _move(90.0),
+    "MoveLeft": _move(-90.0),
+    "RotateRight": _rotate(1.0),
+    "RotateLeft": _rotate(-1.0),
+    "LookDown": _look(1.0),
+    "LookUp": _look(-1.0),
+    "GetReachablePositions": reachable_positions,
+    "GetInteractablePoses": poses,
+    "Pass": no_op,
+    "Done": no_op,
+    "InitialRandomSpawn": no_op,
+    "AdvancePhysicsStep": no_op,
 }

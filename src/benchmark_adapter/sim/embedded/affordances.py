@@ -10,8 +10,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 FLAGS = (
-    "pickupable", "receptacle", "openable", "toggleable", "sliceable", "dirtyable",
-    "canFillWithLiquid", "breakable", "moveable", "cookable",
+    "pickupable",
+    "receptacle",
+    "openable",
+    "toggleable",
+    "sliceable",
+    "dirtyable",
+    "canFillWithLiquid",
+    "breakable",
+    "moveable",
+    "cookable",
 )
 
 
@@ -53,8 +61,9 @@ RECEPTACLE = _types("""ArmChair Bed Box Cabinet Chair CoffeeTable CounterTop Des
     GarbageCan Ottoman TVStand Toilet Bathtub SinkBasin BathtubBasin StoveBurner
     ToiletPaperHanger TowelHolder CoffeeMachine""")
 OPENABLE = _types("Box Cabinet Drawer Fridge Laptop Microwave Safe Kettle")
-TOGGLEABLE = _types("DeskLamp Faucet FloorLamp LightSwitch Microwave CoffeeMachine StoveKnob "
-                    "Television Laptop")
+TOGGLEABLE = _types(
+    "DeskLamp Faucet FloorLamp LightSwitch Microwave CoffeeMachine StoveKnob Television Laptop"
+)
 SLICEABLE = _types("Apple Bread Lettuce Potato Tomato")
 DIRTYABLE = _types("""Apple Bowl Cloth Cup DishSponge Egg Fork Kettle Knife Lettuce Mug Pan Plate
     Potato SoapBottle Spatula Tomato Vase Pot Bed""")
@@ -67,30 +76,94 @@ COOKABLE = _types("Potato Egg Bread BreadSliced PotatoSliced EggCracked")
 
 # How many objects fit before "No valid positions"; sized like AI2-THOR's free surface area.
 CAPACITY = {
-    "Plate": 3, "Bowl": 2, "Cup": 1, "Mug": 1, "Pot": 2, "Pan": 2, "Box": 4, "Drawer": 4,
-    "Cabinet": 6, "Safe": 3, "Microwave": 2, "Fridge": 10, "Sink": 4, "SinkBasin": 4,
-    "GarbageCan": 4, "Shelf": 4, "SideTable": 5, "Dresser": 8, "Desk": 8, "CoffeeTable": 8,
-    "DiningTable": 12, "CounterTop": 16, "Sofa": 8, "ArmChair": 4, "Chair": 2, "Bed": 10,
-    "Ottoman": 3, "TVStand": 6, "Toilet": 2, "Bathtub": 4, "BathtubBasin": 4,
-    "StoveBurner": 1, "ToiletPaperHanger": 1, "TowelHolder": 1, "CoffeeMachine": 1,
+    "Plate": 3,
+    "Bowl": 2,
+    "Cup": 1,
+    "Mug": 1,
+    "Pot": 2,
+    "Pan": 2,
+    "Box": 4,
+    "Drawer": 4,
+    "Cabinet": 6,
+    "Safe": 3,
+    "Microwave": 2,
+    "Fridge": 10,
+    "Sink": 4,
+    "SinkBasin": 4,
+    "GarbageCan": 4,
+    "Shelf": 4,
+    "SideTable": 5,
+    "Dresser": 8,
+    "Desk": 8,
+    "CoffeeTable": 8,
+    "DiningTable": 12,
+    "CounterTop": 16,
+    "Sofa": 8,
+    "ArmChair": 4,
+    "Chair": 2,
+    "Bed": 10,
+    "Ottoman": 3,
+    "TVStand": 6,
+    "Toilet": 2,
+    "Bathtub": 4,
+    "BathtubBasin": 4,
+    "StoveBurner": 1,
+    "ToiletPaperHanger": 1,
+    "TowelHolder": 1,
+    "CoffeeMachine": 1,
 }
 
 # Vertical extent above the id's position (furniture ids sit at floor level).
 HEIGHT = {
-    "Fridge": 1.8, "Sofa": 0.8, "Bed": 0.6, "Desk": 0.75, "DiningTable": 0.75,
-    "CoffeeTable": 0.45, "SideTable": 0.6, "Dresser": 0.9, "ArmChair": 0.8, "Chair": 0.9,
-    "Cabinet": 0.4, "Drawer": 0.15, "Shelf": 0.3, "Box": 0.3, "Microwave": 0.3,
-    "GarbageCan": 0.4, "Ottoman": 0.45, "TVStand": 0.5, "Toilet": 0.6, "Bathtub": 0.5,
-    "FloorLamp": 1.6, "Television": 0.6, "Safe": 0.4,
+    "Fridge": 1.8,
+    "Sofa": 0.8,
+    "Bed": 0.6,
+    "Desk": 0.75,
+    "DiningTable": 0.75,
+    "CoffeeTable": 0.45,
+    "SideTable": 0.6,
+    "Dresser": 0.9,
+    "ArmChair": 0.8,
+    "Chair": 0.9,
+    "Cabinet": 0.4,
+    "Drawer": 0.15,
+    "Shelf": 0.3,
+    "Box": 0.3,
+    "Microwave": 0.3,
+    "GarbageCan": 0.4,
+    "Ottoman": 0.45,
+    "TVStand": 0.5,
+    "Toilet": 0.6,
+    "Bathtub": 0.5,
+    "FloorLamp": 1.6,
+    "Television": 0.6,
+    "Safe": 0.4,
 }
 
 # Radius of floor an object blocks (agents stand on a 0.25 m grid outside it).
 FOOTPRINT = {
-    "Fridge": 0.45, "Sofa": 0.6, "Bed": 0.8, "Desk": 0.4, "DiningTable": 0.5,
-    "CoffeeTable": 0.35, "SideTable": 0.25, "Dresser": 0.35, "ArmChair": 0.35, "Chair": 0.25,
-    "CounterTop": 0.35, "Cabinet": 0.25, "Drawer": 0.25, "Ottoman": 0.25, "TVStand": 0.3,
-    "Toilet": 0.3, "Bathtub": 0.6, "GarbageCan": 0.15, "FloorLamp": 0.15, "Safe": 0.2,
-    "Sink": 0.25, "Shelf": 0.2,
+    "Fridge": 0.45,
+    "Sofa": 0.6,
+    "Bed": 0.8,
+    "Desk": 0.4,
+    "DiningTable": 0.5,
+    "CoffeeTable": 0.35,
+    "SideTable": 0.25,
+    "Dresser": 0.35,
+    "ArmChair": 0.35,
+    "Chair": 0.25,
+    "CounterTop": 0.35,
+    "Cabinet": 0.25,
+    "Drawer": 0.25,
+    "Ottoman": 0.25,
+    "TVStand": 0.3,
+    "Toilet": 0.3,
+    "Bathtub": 0.6,
+    "GarbageCan": 0.15,
+    "FloorLamp": 0.15,
+    "Safe": 0.2,
+    "Sink": 0.25,
+    "Shelf": 0.2,
 }
 
 

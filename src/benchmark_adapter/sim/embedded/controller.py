@@ -11,8 +11,16 @@ from benchmark_adapter.sim.embedded.world import World, ground_world
 from benchmark_adapter.tasks.config import TaskConfig
 
 # Queries leave the world as it is, so cached object records stay valid.
-QUERIES = frozenset({"GetReachablePositions", "GetInteractablePoses", "Pass", "Done",
-                     "InitialRandomSpawn", "AdvancePhysicsStep"})
+QUERIES = frozenset(
+    {
+        "GetReachablePositions",
+        "GetInteractablePoses",
+        "Pass",
+        "Done",
+        "InitialRandomSpawn",
+        "AdvancePhysicsStep",
+    }
+)
 
 
 class EmbeddedController:
@@ -33,15 +41,19 @@ class EmbeddedController:
         """Rebuild the scene from the config (init actions are applied by the caller)."""
         init = self.config.init_state
         self.world = ground_world(
-            scene=self.config.scene_id, objects=init.objects, init_actions=init.init_actions,
-            agent_count=self.agent_count, seed=self.config.seed,
+            scene=self.config.scene_id,
+            objects=init.objects,
+            init_actions=init.init_actions,
+            agent_count=self.agent_count,
+            seed=self.config.seed,
             visibility_distance=init.controller_init.visibilityDistance,
         )
         self._meta = MetadataFactory(self.world, self.config.scene_id)
         return self._meta.snapshot()
 
-    def step(self, action: str, agentId: int | None = None, **kwargs: Any
-             ) -> Sequence[AgentMetadata]:
+    def step(
+        self, action: str, agentId: int | None = None, **kwargs: Any
+    ) -> Sequence[AgentMetadata]:
         """Run one native action; return every agent's metadata after it."""
         world, meta = self._require_reset()
         index = 0 if agentId is None else int(agentId)
@@ -77,13 +89,19 @@ class EmbeddedController:
         world, meta = self._require_reset()
         md = meta.snapshot()[agent]
         view = {
-            "agent": md["agent"], "visibilityDistance": world.visibility_distance,
-            "fieldOfView": 90, "objects": md["objects"],
+            "agent": md["agent"],
+            "visibilityDistance": world.visibility_distance,
+            "fieldOfView": 90,
+            "objects": md["objects"],
             "inventoryObjects": md["inventoryObjects"],
             "otherAgents": [
-                {"name": a.name, "position": {"x": a.x, "y": 0.9, "z": a.z},
-                 "rotation": {"x": 0, "y": a.yaw, "z": 0}}
-                for a in world.agents if a.index != agent
+                {
+                    "name": a.name,
+                    "position": {"x": a.x, "y": 0.9, "z": a.z},
+                    "rotation": {"x": 0, "y": a.yaw, "z": 0},
+                }
+                for a in world.agents
+                if a.index != agent
             ],
         }
         return render_agent_frame(view, width, height)

@@ -22,20 +22,33 @@ def object_record(world: World, obj: SimObject) -> dict[str, Any]:
     """An object's metadata without the per-agent fields (`visible`, `distance`)."""
     a = obj.aff
     return {
-        "objectId": obj.id, "objectType": obj.type, "name": obj.id.replace("|", "_"),
+        "objectId": obj.id,
+        "objectType": obj.type,
+        "name": obj.id.replace("|", "_"),
         "position": {"x": obj.x, "y": obj.y, "z": obj.z},
         "rotation": {"x": 0.0, "y": 0.0, "z": 0.0},
-        "pickupable": a.pickupable, "isPickedUp": obj.held_by is not None,
+        "pickupable": a.pickupable,
+        "isPickedUp": obj.held_by is not None,
         "receptacle": a.receptacle,
         "receptacleObjectIds": list(obj.contents) if a.receptacle else None,
         "parentReceptacles": _parents(world, obj),
-        "openable": a.openable, "isOpen": obj.is_open, "openness": 1.0 if obj.is_open else 0.0,
-        "toggleable": a.toggleable, "isToggled": obj.is_toggled,
-        "sliceable": a.sliceable, "isSliced": obj.is_sliced,
-        "dirtyable": a.dirtyable, "isDirty": obj.is_dirty,
-        "canFillWithLiquid": a.canFillWithLiquid, "isFilledWithLiquid": obj.is_filled,
-        "fillLiquid": obj.fill_liquid, "breakable": a.breakable, "isBroken": obj.is_broken,
-        "cookable": a.cookable, "isCooked": obj.is_cooked, "moveable": a.moveable,
+        "openable": a.openable,
+        "isOpen": obj.is_open,
+        "openness": 1.0 if obj.is_open else 0.0,
+        "toggleable": a.toggleable,
+        "isToggled": obj.is_toggled,
+        "sliceable": a.sliceable,
+        "isSliced": obj.is_sliced,
+        "dirtyable": a.dirtyable,
+        "isDirty": obj.is_dirty,
+        "canFillWithLiquid": a.canFillWithLiquid,
+        "isFilledWithLiquid": obj.is_filled,
+        "fillLiquid": obj.fill_liquid,
+        "breakable": a.breakable,
+        "isBroken": obj.is_broken,
+        "cookable": a.cookable,
+        "isCooked": obj.is_cooked,
+        "moveable": a.moveable,
     }
 
 
@@ -76,23 +89,27 @@ class ObjectTable:
 class AgentMetadata(Mapping[str, Any]):
     """One agent's metadata; `objects` is built on first access."""
 
-    __slots__ = ("_table", "_agent", "_data", "_objects", "__weakref__")
+    __slots__ = ("__weakref__", "_agent", "_data", "_objects", "_table")
 
     def __init__(self, table: ObjectTable, agent: SimAgent, scene: str) -> None:
         self._table, self._agent, self._objects = table, agent, None
         held = table.world.objects.get(agent.held) if agent.held else None
         self._data = {
-            "agentId": agent.index, "sceneName": scene, "fov": 90.0,
+            "agentId": agent.index,
+            "sceneName": scene,
+            "fov": 90.0,
             "agent": {
                 "name": agent.name,
                 "position": {"x": agent.x, "y": AGENT_Y, "z": agent.z},
                 "rotation": {"x": 0.0, "y": agent.yaw, "z": 0.0},
-                "cameraHorizon": agent.horizon, "isStanding": agent.standing,
+                "cameraHorizon": agent.horizon,
+                "isStanding": agent.standing,
             },
-            "inventoryObjects": ([{"objectId": held.id, "objectType": held.type}]
-                                 if held else []),
-            "lastAction": agent.last_action, "lastActionSuccess": agent.last_success,
-            "errorMessage": agent.last_error, "actionReturn": agent.last_return,
+            "inventoryObjects": ([{"objectId": held.id, "objectType": held.type}] if held else []),
+            "lastAction": agent.last_action,
+            "lastActionSuccess": agent.last_success,
+            "errorMessage": agent.last_error,
+            "actionReturn": agent.last_return,
         }
 
     def freeze(self) -> None:

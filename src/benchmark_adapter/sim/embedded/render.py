@@ -20,9 +20,15 @@ MIN_DEPTH = 0.3  # clamp depth so objects at the agent's feet do not blow up to 
 WALL, FLOOR, HORIZON = (226, 218, 200), (150, 132, 112), (110, 95, 80)
 # (width, height) in metres for a few big types; sizes make the scene readable, not exact.
 TYPE_SIZES = {
-    "Fridge": (0.7, 1.7), "CounterTop": (1.1, 0.12), "DiningTable": (1.0, 0.12),
-    "Cabinet": (0.5, 0.45), "Drawer": (0.45, 0.18), "Sink": (0.6, 0.2),
-    "Microwave": (0.5, 0.3), "StoveBurner": (0.3, 0.08), "Shelf": (0.8, 0.1),
+    "Fridge": (0.7, 1.7),
+    "CounterTop": (1.1, 0.12),
+    "DiningTable": (1.0, 0.12),
+    "Cabinet": (0.5, 0.45),
+    "Drawer": (0.45, 0.18),
+    "Sink": (0.6, 0.2),
+    "Microwave": (0.5, 0.3),
+    "StoveBurner": (0.3, 0.08),
+    "Shelf": (0.8, 0.1),
 }
 Box = tuple[float, float, float, float]
 
@@ -133,8 +139,10 @@ def _draw_background(draw: ImageDraw.ImageDraw, cam: _Camera) -> None:
     draw.rectangle((0, cam.horizon, cam.w, cam.h), fill=FLOOR)
     # Floor lines converging to the centre give a sense of depth and of the camera tilt.
     for k in range(-4, 5):
-        draw.line((cam.w / 2 + k * 12, cam.horizon, cam.w / 2 + k * cam.w / 3, cam.h),
-                  fill=(140, 122, 103))
+        draw.line(
+            (cam.w / 2 + k * 12, cam.horizon, cam.w / 2 + k * cam.w / 3, cam.h),
+            fill=(140, 122, 103),
+        )
     draw.line((0, cam.horizon, cam.w, cam.horizon), fill=HORIZON, width=2)
 
 
@@ -148,8 +156,11 @@ def _draw_object(draw: ImageDraw.ImageDraw, obj: dict, box: Box) -> None:
         # Dark interior plus a swung door on the right: "open" is readable without the label.
         inset = min(x1 - x0, y1 - y0) * 0.15
         draw.rectangle((x0 + inset, y0 + inset, x1 - inset, y1 - inset), fill=(45, 45, 50))
-        draw.polygon([(x1, y0), (x1 + (x1 - x0) * 0.25, y0 + 4), (x1 + (x1 - x0) * 0.25, y1 - 4),
-                      (x1, y1)], fill=fill, outline=outline)
+        draw.polygon(
+            [(x1, y0), (x1 + (x1 - x0) * 0.25, y0 + 4), (x1 + (x1 - x0) * 0.25, y1 - 4), (x1, y1)],
+            fill=fill,
+            outline=outline,
+        )
     elif obj.get("openable"):
         draw.line((x1 - 6, y0 + 4, x1 - 6, y1 - 4), fill=outline, width=2)  # door handle
     if obj.get("isSliced"):
@@ -164,22 +175,26 @@ def _draw_agent(draw: ImageDraw.ImageDraw, box: Box) -> None:
     x0, y0, x1, y1 = box
     cx, head = (x0 + x1) / 2, (y1 - y0) * 0.22
     draw.ellipse((cx - head / 2, y0, cx + head / 2, y0 + head), fill=(40, 70, 160))
-    draw.polygon([(cx - head * 0.4, y0 + head), (cx + head * 0.4, y0 + head), (x1, y1), (x0, y1)],
-                 fill=(60, 100, 200), outline=(20, 40, 100))
+    draw.polygon(
+        [(cx - head * 0.4, y0 + head), (cx + head * 0.4, y0 + head), (x1, y1), (x0, y1)],
+        fill=(60, 100, 200),
+        outline=(20, 40, 100),
+    )
 
 
 def _place_label(draw, text: str, box: Box, font, taken: list[Box], w: int, h: int) -> Box:
     """Label box just above (else below) the shape, stepping away until no label overlaps."""
-    l, t, r, b = draw.textbbox((0, 0), text, font=font)
-    tw, th = r - l + 6, b - t + 4
+    left, top, right, bottom = draw.textbbox((0, 0), text, font=font)
+    tw, th = right - left + 6, bottom - top + 4
     x = min(max((box[0] + box[2]) / 2 - tw / 2, 1), w - tw - 1)
     above, below = box[1] - th - 2, box[3] + 2
     # Alternate above/below so a label never lands on top of its own (small) shape.
     for y in (v for k in range(8) for v in (above - k * (th + 1), below + k * (th + 1))):
         y = min(max(y, 1), h - th - 1)
         cand = (x, y, x + tw, y + th)
-        if not any(c[0] < cand[2] and cand[0] < c[2] and c[1] < cand[3] and cand[1] < c[3]
-                   for c in taken):
+        if not any(
+            c[0] < cand[2] and cand[0] < c[2] and c[1] < cand[3] and cand[1] < c[3] for c in taken
+        ):
             break
     taken.append(cand)
     return cand
@@ -195,7 +210,9 @@ def _draw_labels(draw, labels: list[tuple[str, Box]], font, w: int, h: int, take
 
 def _held_box(draw, view: dict, font, w: int, h: int) -> tuple[str, Box] | None:
     """Text and bottom-right box of the ``holding: ...`` badge, or None when empty-handed."""
-    held = [str(o.get("objectType") or o.get("objectId")) for o in view.get("inventoryObjects") or []]
+    held = [
+        str(o.get("objectType") or o.get("objectId")) for o in view.get("inventoryObjects") or []
+    ]
     if not held:
         return None
     text = "holding: " + ", ".join(held)

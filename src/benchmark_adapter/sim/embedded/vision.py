@@ -7,6 +7,7 @@ horizon, and is not shut inside a closed container or held by another agent.
 
 from __future__ import annotations
 
+import functools
 import math
 
 from benchmark_adapter.sim.embedded.world import CAMERA_HEIGHT, GRID, SimAgent, SimObject, World
@@ -27,8 +28,9 @@ def angle_between(a: float, b: float) -> float:
     return min(d, 360.0 - d)
 
 
-def in_view(x: float, z: float, yaw: float, horizon: float, obj: SimObject,
-            max_distance: float) -> bool:
+def in_view(
+    x: float, z: float, yaw: float, horizon: float, obj: SimObject, max_distance: float
+) -> bool:
     """Geometric visibility of an object from a camera pose."""
     dist = math.hypot(obj.x - x, obj.z - z)
     if dist > max_distance:
@@ -66,25 +68,42 @@ def interactable_poses(world: World, obj: SimObject) -> list[dict]:
     """Standing poses on walkable cells from which the object is visible (ignores agents)."""
     if enclosed(world, obj) or obj.held_by is not None:
         return []
-    reach = world.visibility_distance
-    cx0, cz0 = world.cell_of(obj.x, obj.z)
+    # The poses are shared, read-only: callers must not mutate them.
+    return _compute_poses(
+        world.floor, obj.x, obj.y, obj.z, obj.aff.height, world.visibility_distance
+    )
+
+
+@functools.lru_cache(maxsize=4096)
+def _compute_poses(
+    floor: frozenset, x: float, y: float, z: float, height: float, reach: float
+) -> list[dict]:
+    """Poses depend only on the (static) floor and the object's geometry, so they are cached
+    across steps and episodes."""
+    cx0, cz0 = round(x / GRID), round(z / GRID)
     span = math.ceil(reach / GRID)
     poses = []
     for cx in range(cx0 - span, cx0 + span + 1):
         for cz in range(cz0 - span, cz0 + span + 1):
-            if (cx, cz) in world.floor:
-                poses.extend(_poses_at(cx * GRID, cz * GRID, obj, reach))
+            if (cx, cz) in floor:
+                poses.extend(_poses_at(cx * GRID, cz * GRID, x, y, z, height, reach))
     return poses
 
 
-def _poses_at(x: float, z: float, obj: SimObject, reach: float) -> list[dict]:
-    facing = bearing(x, z, obj.x, obj.z)
-    out = []
-    for yaw in YAWS:
-        if angle_between(facing, yaw) > FIELD_OF_VIEW / 2:
-            continue
-        for horizon in HORIZONS:
-            if in_view(x, z, yaw, horizon, obj, reach):
-                out.append({"x": x, "y": 0.9, "z": z, "rotation": yaw, "horizon": horizon,
-                            "standing": True})
-    return out
+def _poses_at(
+    x: float, z: float, ox: float, oy: float, oz: float, height: float, reach: float
+) -> list[dict]:
+    dist = math.hypot(ox - x, oz - z)
+    if dist > reach:
+        return []
+    facing = bearing(x, z, ox, oz)
+    yaws = [y for y in YAWS if dist <= 0.05 or angle_between(facing, y) <= FIELD_OF_VIEW / 2]
+    flat = max(dist, 0.05)
+    low = math.degrees(math.atan2(CAMERA_HEIGHT - oy, flat))
+    high = math.degrees(math.atan2(CAMERA_HEIGHT - (oy + height), flat))
+    horizons = [h for h in HORIZONS if high - FIELD_OF_VIEW / 2 <= h <= low + FIELD_OF_VIEW / 2]
+    return [
+        {"x": x, "y": 0.9, "z": z, "rotation": yaw, "horizon": h, "standing": True}
+        for yaw in yaws
+        for h in horizons
+    ]

@@ -144,8 +144,13 @@ def build_floor(objects: list[SimObject], margin: float = 1.25) -> frozenset[tup
     return frozenset(cells)
 
 
-def place_agents(floor: frozenset[tuple[int, int]], count: int, seed: int, scene: str,
-                 min_separation: float = 0.75) -> list[SimAgent]:
+def place_agents(
+    floor: frozenset[tuple[int, int]],
+    count: int,
+    seed: int,
+    scene: str,
+    min_separation: float = 0.75,
+) -> list[SimAgent]:
     """Agents on distinct walkable cells, chosen deterministically from the seed and scene."""
     rng = random.Random(zlib.crc32(f"{scene}:{seed}".encode()))
     cells = sorted(floor)
@@ -159,11 +164,18 @@ def place_agents(floor: frozenset[tuple[int, int]], count: int, seed: int, scene
     raise ValueError(f"scene {scene}: no room for {count} agents on the floor grid")
 
 
-def ground_world(scene: str, objects: dict[str, str], init_actions: list[dict], agent_count: int,
-                 seed: int, visibility_distance: float = 1.5) -> World:
+def ground_world(
+    scene: str,
+    objects: dict[str, str],
+    init_actions: list[dict],
+    agent_count: int,
+    seed: int,
+    visibility_distance: float = 1.5,
+) -> World:
     """Build the world of a task config: its objects, floor and agents."""
     sim_objects = {oid: make_object(oid) for oid in referenced_ids(objects, init_actions)}
     floor = build_floor(list(sim_objects.values()))
     agents = place_agents(floor, agent_count, seed, scene)
-    return World(objects=sim_objects, agents=agents, floor=floor,
-                 visibility_distance=visibility_distance)
+    return World(
+        objects=sim_objects, agents=agents, floor=floor, visibility_distance=visibility_distance
+    )

@@ -1,0 +1,48 @@
+"""The `cocobench` command. The only part of the project that prints."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from benchmark_adapter.tasks import TaskConfigError
+from cocobench_agents import __version__
+from cocobench_agents.cli.list_cmd import list_command
+from cocobench_agents.cli.score_cmd import score_command
+from cocobench_agents.cli.validate_cmd import validate_command
+
+USAGE_ERROR = 2
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="cocobench")
+def cli() -> None:
+    """Benchmark LLM/VLM planners on CoCoBench's multi-agent coordination tasks."""
+
+
+cli.add_command(list_command)
+cli.add_command(validate_command)
+cli.add_command(score_command)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: user mistakes become one-line errors and exit code 2, never tracebacks."""
+    try:
+        code = cli.main(args=argv, prog_name="cocobench", standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        return int(exc.exit_code)
+    except click.Abort:
+        click.echo("Aborted.", err=True)
+        return 130
+    except click.ClickException as exc:
+        exc.show()
+        return USAGE_ERROR if exc.exit_code == 2 else exc.exit_code
+    except TaskConfigError as exc:
+        click.echo(f"cocobench: error: {exc}", err=True)
+        return USAGE_ERROR
+    return code if isinstance(code, int) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,39 @@
+"""`cocobench list`: the instances of a suite, folder, file, index or subset."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from benchmark_adapter.tasks import load_tasks
+from cocobench_agents.cli.tables import table
+
+HEADERS = ("task_id", "cell", "family", "dim", "agents", "scene", "budget")
+
+
+def instance_record(config) -> dict:
+    """The listing record of one instance."""
+    return {
+        "task_id": config.task_id,
+        "cell": config.cell,
+        "family": config.task_family,
+        "dim": config.coordination_dim,
+        "agents": config.agent_count,
+        "scene": config.scene_id,
+        "budget": config.budget,
+    }
+
+
+@click.command("list")
+@click.argument("source")
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON list instead of a table.")
+def list_command(source: str, as_json: bool) -> None:
+    """List the instances in SOURCE (a suite name, a config file or folder, an index.json or a
+    subset file such as rep240.json)."""
+    records = [instance_record(c) for c in load_tasks(source)]
+    if as_json:
+        click.echo(json.dumps(records, indent=2))
+        return
+    click.echo(table(HEADERS, [[r[h] for h in HEADERS] for r in records]))
+    click.echo(f"{len(records)} instances")
