@@ -23,7 +23,11 @@ def find(session: NativeSession, object_id: str) -> SkillResult:
     last_error = ""
     own = session.act("GetInteractablePoses", objectId=object_id)
     poses = own["actionReturn"] if own["lastActionSuccess"] else None
-    for pose in sorted(poses or [], key=lambda p: _dist2(p, start)):
+    sx, sy, sz = start["x"], start["y"], start["z"]
+    nearest_first = sorted(
+        poses or [], key=lambda p: (p["x"] - sx) ** 2 + (p["y"] - sy) ** 2 + (p["z"] - sz) ** 2
+    )
+    for pose in nearest_first:
         if _near_other(pose, others):
             continue
         own = session.act("TeleportFull", **_teleport_args(pose))
@@ -114,7 +118,3 @@ def _other_positions(session: NativeSession) -> list[tuple[float, float]]:
 
 def _near_other(p: Mapping[str, Any], others: Sequence[tuple[float, float]]) -> bool:
     return any(math.hypot(p["x"] - x, p["z"] - z) < MIN_AGENT_SEPARATION for x, z in others)
-
-
-def _dist2(p: Mapping[str, Any], q: Mapping[str, Any]) -> float:
-    return (p["x"] - q["x"]) ** 2 + (p["y"] - q["y"]) ** 2 + (p["z"] - q["z"]) ** 2

@@ -101,9 +101,11 @@ def _poses_at(
     flat = max(dist, 0.05)
     low = math.degrees(math.atan2(CAMERA_HEIGHT - oy, flat))
     high = math.degrees(math.atan2(CAMERA_HEIGHT - (oy + height), flat))
-    horizons = [h for h in HORIZONS if high - FIELD_OF_VIEW / 2 <= h <= low + FIELD_OF_VIEW / 2]
-    return [
-        {"x": x, "y": 0.9, "z": z, "rotation": yaw, "horizon": h, "standing": True}
-        for yaw in yaws
-        for h in horizons
-    ]
+    fits = [h for h in HORIZONS if high - FIELD_OF_VIEW / 2 <= h <= low + FIELD_OF_VIEW / 2]
+    if not fits:
+        return []
+    # One pose per position and yaw: the horizon nearest the object's middle.
+    middle = (low + high) / 2
+    horizon = min(fits, key=lambda h: abs(h - middle))
+    return [{"x": x, "y": 0.9, "z": z, "rotation": yaw, "horizon": horizon, "standing": True}
+            for yaw in yaws]

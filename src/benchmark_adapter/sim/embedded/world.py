@@ -7,6 +7,7 @@ else comes from the type's affordances.
 
 from __future__ import annotations
 
+import functools
 import math
 import random
 import zlib
@@ -130,16 +131,23 @@ def referenced_ids(objects: dict[str, str], init_actions: list[dict]) -> list[st
 
 def build_floor(objects: list[SimObject], margin: float = 1.25) -> frozenset[tuple[int, int]]:
     """Walkable cells: the objects' bounding box plus a margin, minus furniture footprints."""
-    xs = [o.x for o in objects] or [0.0]
-    zs = [o.z for o in objects] or [0.0]
+    return _floor(tuple((o.x, o.z, o.aff.footprint) for o in objects), margin)
+
+
+@functools.lru_cache(maxsize=256)
+def _floor(geometry: tuple[tuple[float, float, float], ...], margin: float
+           ) -> frozenset[tuple[int, int]]:
+    """Cached: every reset of the same scene grounds the same floor."""
+    xs = [x for x, _, _ in geometry] or [0.0]
+    zs = [z for _, z, _ in geometry] or [0.0]
     x0, x1 = math.floor((min(xs) - margin) / GRID), math.ceil((max(xs) + margin) / GRID)
     z0, z1 = math.floor((min(zs) - margin) / GRID), math.ceil((max(zs) + margin) / GRID)
-    blockers = [o for o in objects if o.aff.footprint > 0]
+    blockers = [(x, z, r) for x, z, r in geometry if r > 0]
     cells = set()
     for cx in range(x0, x1 + 1):
         for cz in range(z0, z1 + 1):
             x, z = cx * GRID, cz * GRID
-            if all(math.hypot(o.x - x, o.z - z) > o.aff.footprint for o in blockers):
+            if all(math.hypot(bx - x, bz - z) > r for bx, bz, r in blockers):
                 cells.add((cx, cz))
     return frozenset(cells)
 
