@@ -156,9 +156,8 @@ PHRASES: dict[str, Callable[[Callable[[str], str], Args], str]] = {
 
 
 def goal_title(config: TaskConfig) -> str:
-    """task_name with `_` → space and only the first character capitalised."""
-    text = config.task_name.replace("_", " ")
-    return text[:1].upper() + text[1:]
+    """task_name with `_` → space, capitalised as Python's `str.capitalize` does."""
+    return config.task_name.replace("_", " ").capitalize()
 
 
 def goal_phrases(config: TaskConfig, alias_of: Mapping[str, str]) -> list[str]:

@@ -90,42 +90,32 @@ def aliases(objects: Sequence[Mapping[str, Any]]) -> dict[str, str]:
 
 
 def _agent_phrases(objs: list[tuple[str, Mapping[str, Any]]]) -> list[tuple[str, str, tuple]]:
-    """(phrase, skill, args) in the reference's per-agent block order."""
-    out = [(f"find a {a}", "Find", (o["objectId"],)) for a, o in objs]
+    """(phrase, skill, args) in the reference's per-agent block order: all Finds, the
+    explores and wait, then one skill category at a time over every alias that affords it."""
+
+    def having(*flags: str) -> list[tuple[str, tuple[str]]]:
+        return [(a, (o["objectId"],)) for a, o in objs if any(o.get(f) for f in flags)]
+
+    out = [(f"find a {a}", "Find", oid) for a, oid in having(*AFFORDANCE_FLAGS)]
     out += [(f"explore {d}", "Explore", (d,)) for d in EXPLORE_DIRECTIONS]
     out.append(("wait", "Wait", ()))
-    for a, o in objs:
-        oid = (o["objectId"],)
-        if o.get("pickupable"):
-            out.append((f"pick up the {a}", "PickUp", oid))
-        if o.get("receptacle"):
-            out.append((f"put object in hand on the {a}", "Put", oid))
+    out += [(f"pick up the {a}", "PickUp", oid) for a, oid in having("pickupable")]
+    out += [(f"put object in hand on the {a}", "Put", oid) for a, oid in having("receptacle")]
     out.append(("drop object in hand", "Drop", ()))
-    for a, o in objs:
-        out += _state_phrases(a, o)
-    return out
-
-
-def _state_phrases(a: str, o: Mapping[str, Any]) -> list[tuple[str, str, tuple]]:
-    oid = (o["objectId"],)
-    out = []
-    if o.get("openable"):
+    for a, oid in having("openable"):
         out += [(f"open the {a}", "Open", oid), (f"close the {a}", "Close", oid)]
-    if o.get("toggleable"):
+    for a, oid in having("toggleable"):
         out += [(f"turn on the {a}", "ToggleOn", oid), (f"turn off the {a}", "ToggleOff", oid)]
-    if o.get("sliceable"):
-        out.append((f"slice the {a}", "Slice", oid))
-    if o.get("dirtyable"):
-        out.append((f"clean the {a}", "CleanObject", oid))
-    if o.get("canFillWithLiquid"):
+    out += [(f"slice the {a}", "Slice", oid) for a, oid in having("sliceable")]
+    out += [(f"clean the {a}", "CleanObject", oid) for a, oid in having("dirtyable")]
+    for a, oid in having("canFillWithLiquid"):
         out += [
             (f"fill the {a} with water", "FillObjectWithLiquid", (*oid, "water")),
             (f"empty liquid from the {a}", "EmptyLiquidFromObject", oid),
         ]
-    if o.get("pickupable") or o.get("moveable"):
+    for a, oid in having("pickupable", "moveable"):
         out += [(f"push the {a}", "PushObject", oid), (f"pull the {a}", "PullObject", oid)]
-    if o.get("breakable"):
-        out.append((f"break the {a}", "BreakObject", oid))
+    out += [(f"break the {a}", "BreakObject", oid) for a, oid in having("breakable")]
     return out
 
 

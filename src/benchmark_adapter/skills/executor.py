@@ -37,7 +37,7 @@ def _find(s: NativeSession, call: SkillCall) -> SkillResult:
 def _explore(s: NativeSession, call: SkillCall) -> SkillResult:
     direction = call.args[0] if call.args else ""
     if direction not in EXPLORE:
-        return s.result.fail(f"Unknown explore direction: {direction!r}")
+        return s.result.fail(f"Unsupported direction: {direction}")
     action, kwargs = EXPLORE[direction]
     return s.finish(s.act(action, **kwargs))
 
@@ -46,13 +46,13 @@ def _wait(s: NativeSession, call: SkillCall) -> SkillResult:
     return s.finish(s.act("Pass"))
 
 
-def _checked(s: NativeSession, object_id: str, flag: str, what: str) -> str | None:
+def _checked(s: NativeSession, object_id: str, flag: str = "") -> str | None:
     """Refusal text if the object is missing or lacks an affordance, else None."""
     obj = s.object(object_id)
     if obj is None:
-        return f"Object {object_id} does not exist in the scene"
+        return f"Object not found in metadata: {object_id}"
     if flag and not obj.get(flag):
-        return f"{object_id} is not {what}"
+        return f"Object {object_id} does not satisfy affordance: {flag}"
     return None
 
 
@@ -61,7 +61,7 @@ def _pickup(s: NativeSession, call: SkillCall) -> SkillResult:
     holder = s.holder_of(oid)
     if holder is not None and holder != s.agent:
         return s.result.fail(f"{oid} is already held by another agent")
-    refusal = _checked(s, oid, "pickupable", "pickupable")
+    refusal = _checked(s, oid, "pickupable")
     if refusal:
         return s.result.fail(refusal)
     return s.finish(s.act("PickupObject", objectId=oid, forceAction=True))
@@ -73,9 +73,7 @@ def _put(s: NativeSession, call: SkillCall) -> SkillResult:
     if held is None:
         return s.result.fail("Agent is not holding any object")
     s.result.args = {"objectId": held["objectId"], "receptacleId": rid}
-    refusal = _checked(s, held["objectId"], "", "") or _checked(
-        s, rid, "receptacle", "a receptacle"
-    )
+    refusal = _checked(s, held["objectId"]) or _checked(s, rid, "receptacle")
     if refusal:
         return s.result.fail(refusal)
     receptacle = s.object(rid)
@@ -88,12 +86,12 @@ def _drop(s: NativeSession, call: SkillCall) -> SkillResult:
     return s.finish(s.act("DropHandObject", forceAction=True))
 
 
-def _simple(action: str, flag: str, what: str, force: bool) -> Skill:
+def _simple(action: str, flag: str, force: bool) -> Skill:
     """A skill that checks one affordance and issues one native action on its object."""
 
     def skill(s: NativeSession, call: SkillCall) -> SkillResult:
         oid = call.args[0]
-        refusal = _checked(s, oid, flag, what)
+        refusal = _checked(s, oid, flag)
         if refusal:
             return s.result.fail(refusal)
         extra = {"forceAction": True} if force else {}
@@ -107,14 +105,14 @@ def _slice(s: NativeSession, call: SkillCall) -> SkillResult:
     if held is None:
         return s.result.fail("Agent must hold a Knife or ButterKnife to slice")
     if held["objectType"] not in KNIVES:
-        return s.result.fail(f"Agent is holding {held['objectType']}, not a Knife/ButterKnife")
-    return _simple("SliceObject", "sliceable", "sliceable", False)(s, call)
+        return s.result.fail(f"Agent is holding {held['objectId']}, not a Knife/ButterKnife")
+    return _simple("SliceObject", "sliceable", False)(s, call)
 
 
 def _fill(s: NativeSession, call: SkillCall) -> SkillResult:
     oid = call.args[0]
     liquid = call.args[1] if len(call.args) > 1 else "water"
-    refusal = _checked(s, oid, "", "")
+    refusal = _checked(s, oid)
     if refusal:
         return s.result.fail(refusal)
     return s.finish(s.act("FillObjectWithLiquid", objectId=oid, fillLiquid=liquid))
@@ -124,7 +122,7 @@ def _push(action: str) -> Skill:
     def skill(s: NativeSession, call: SkillCall) -> SkillResult:
         oid = call.args[0]
         magnitude = float(call.args[1]) if len(call.args) > 1 else 150.0
-        refusal = _checked(s, oid, "", "")
+        refusal = _checked(s, oid)
         if refusal:
             return s.result.fail(refusal)
         return s.finish(s.act(action, objectId=oid, moveMagnitude=magnitude))
@@ -139,17 +137,17 @@ SKILLS: dict[str, Skill] = {
     "PickUp": _pickup,
     "Put": _put,
     "Drop": _drop,
-    "Open": _simple("OpenObject", "openable", "openable", True),
-    "Close": _simple("CloseObject", "openable", "openable", True),
-    "ToggleOn": _simple("ToggleObjectOn", "toggleable", "toggleable", False),
-    "ToggleOff": _simple("ToggleObjectOff", "toggleable", "toggleable", False),
+    "Open": _simple("OpenObject", "openable", True),
+    "Close": _simple("CloseObject", "openable", True),
+    "ToggleOn": _simple("ToggleObjectOn", "toggleable", False),
+    "ToggleOff": _simple("ToggleObjectOff", "toggleable", False),
     "Slice": _slice,
-    "CleanObject": _simple("CleanObject", "dirtyable", "dirtyable", False),
+    "CleanObject": _simple("CleanObject", "dirtyable", False),
     "FillObjectWithLiquid": _fill,
-    "EmptyLiquidFromObject": _simple("EmptyLiquidFromObject", "", "", False),
+    "EmptyLiquidFromObject": _simple("EmptyLiquidFromObject", "", False),
     "PushObject": _push("PushObject"),
     "PullObject": _push("PullObject"),
-    "BreakObject": _simple("BreakObject", "breakable", "breakable", False),
+    "BreakObject": _simple("BreakObject", "breakable", False),
 }
 # Skills whose first argument is an object id (the others take none or a direction).
 OBJECT_SKILLS = frozenset(SKILLS) - {"Explore", "Wait", "Drop"}
@@ -159,8 +157,8 @@ def result_args(call: SkillCall) -> dict[str, str | None]:
     """The `args` record of a call, as the reference writes it."""
     if call.skill == "Explore":
         return {"direction": call.args[0] if call.args else ""}
-    if call.skill == "Put":
-        return {"objectId": None, "receptacleId": call.args[0] if call.args else ""}
+    if call.skill == "Put":  # the held object is filled in once known
+        return {"receptacleId": call.args[0] if call.args else ""}
     if call.skill == "FillObjectWithLiquid" and len(call.args) > 1:
         return {"objectId": call.args[0], "liquid": call.args[1]}
     return {"objectId": call.args[0]} if call.args else {}

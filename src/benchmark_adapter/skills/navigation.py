@@ -17,47 +17,61 @@ AGENT_EYE_HEIGHT = 0.9
 def find(session: NativeSession, object_id: str) -> SkillResult:
     """Go where `object_id` is visible, avoiding teammates; teleport back on failure."""
     if session.object(object_id) is None:
-        return session.result.fail(f"Object {object_id} does not exist in the scene")
+        return session.result.fail(f"Object not found in metadata: {object_id}")
     start = _pose(session.me["agent"])
-    others = _other_positions(session)
-    last_error = ""
+    ok, error = _via_interactable_poses(session, object_id, start)
+    if ok is None:  # no pose was even tried: fall back to reachable positions
+        ok, error = _fallback(session, object_id)
+    if ok:
+        return session.finish(session.me)
+    session.act("TeleportFull", **start)
+    return session.result.fail(error)
+
+
+def _via_interactable_poses(
+    session: NativeSession, object_id: str, start: dict[str, Any]
+) -> tuple[bool | None, str]:
+    """Try interactable poses nearest first, skipping those next to a teammate.
+
+    Returns (True, "") on success, (False, error) when a teleport failed, and (None, "")
+    when there was nothing to try.
+    """
     own = session.act("GetInteractablePoses", objectId=object_id)
     poses = own["actionReturn"] if own["lastActionSuccess"] else None
+    others = _other_positions(session)
     sx, sy, sz = start["x"], start["y"], start["z"]
     nearest_first = sorted(
         poses or [], key=lambda p: (p["x"] - sx) ** 2 + (p["y"] - sy) ** 2 + (p["z"] - sz) ** 2
     )
+    last_error = ""
     for pose in nearest_first:
         if _near_other(pose, others):
             continue
         own = session.act("TeleportFull", **_teleport_args(pose))
         if _sees(own, object_id):
-            return session.finish(own)
-        last_error = own["errorMessage"] or last_error
-    found, last_error = _fallback(session, object_id, others, last_error)
-    if found:
-        return session.finish(session.me)
-    session.act("TeleportFull", **start)
-    return session.result.fail(
-        last_error or f"Could not navigate to a visible, unoccupied pose for {object_id}"
-    )
+            return True, ""
+        last_error = own["errorMessage"] or ""
+    return (False, last_error) if last_error else (None, "")
 
 
-def _fallback(
-    session: NativeSession, object_id: str, others: list[tuple[float, float]], last_error: str
-) -> tuple[bool, str]:
+def _fallback(session: NativeSession, object_id: str) -> tuple[bool, str]:
     """Reachable positions nearest the object, facing it, trying a few camera horizons."""
-    obj = session.object(object_id)
+    target = session.object(object_id)["position"]
     own = session.act("GetReachablePositions")
-    positions = own["actionReturn"] if own["lastActionSuccess"] else []
-    target = obj["position"]
+    if not own["lastActionSuccess"]:
+        return False, own["errorMessage"] or ""
+    positions = own["actionReturn"] or []
+    if not positions:
+        return False, f"No reachable positions found for {object_id}"
+    others = _other_positions(session)
 
     def rank(p: Mapping[str, float]) -> float:
         penalty = 1000.0 if _near_other(p, others) else 0.0
-        return (p["x"] - target["x"]) ** 2 + (p["z"] - target["z"]) ** 2 + penalty
+        return sum((p.get(k, 0.0) - target[k]) ** 2 for k in ("x", "y", "z")) + penalty
 
     horizons = (30, 0, 60, -30) if target["y"] < AGENT_EYE_HEIGHT + 0.3 else (0, 30, -30, 60)
-    for p in sorted(positions or [], key=rank)[:FALLBACK_CANDIDATES]:
+    last_error = ""
+    for p in sorted(positions, key=rank)[:FALLBACK_CANDIDATES]:
         if _near_other(p, others):
             continue
         yaw = math.degrees(math.atan2(target["x"] - p["x"], target["z"] - p["z"])) % 360.0
@@ -65,16 +79,16 @@ def _fallback(
             own = session.act(
                 "TeleportFull",
                 x=p["x"],
-                y=p["y"],
+                y=p.get("y", 0.9),
                 z=p["z"],
                 rotation=yaw,
                 horizon=horizon,
                 standing=True,
             )
             if _sees(own, object_id):
-                return True, last_error
-            last_error = own["errorMessage"] or last_error
-    return False, last_error
+                return True, ""
+            last_error = own["errorMessage"] or ""
+    return False, last_error or f"Could not navigate to a visible, unoccupied pose for {object_id}"
 
 
 def _sees(own: Mapping[str, Any], object_id: str) -> bool:

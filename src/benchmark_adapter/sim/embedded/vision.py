@@ -107,5 +107,7 @@ def _poses_at(
     # One pose per position and yaw: the horizon nearest the object's middle.
     middle = (low + high) / 2
     horizon = min(fits, key=lambda h: abs(h - middle))
-    return [{"x": x, "y": 0.9, "z": z, "rotation": yaw, "horizon": horizon, "standing": True}
-            for yaw in yaws]
+    return [
+        {"x": x, "y": 0.9, "z": z, "rotation": yaw, "horizon": horizon, "standing": True}
+        for yaw in yaws
+    ]

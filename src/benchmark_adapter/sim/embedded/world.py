@@ -135,8 +135,9 @@ def build_floor(objects: list[SimObject], margin: float = 1.25) -> frozenset[tup
 
 
 @functools.lru_cache(maxsize=256)
-def _floor(geometry: tuple[tuple[float, float, float], ...], margin: float
-           ) -> frozenset[tuple[int, int]]:
+def _floor(
+    geometry: tuple[tuple[float, float, float], ...], margin: float
+) -> frozenset[tuple[int, int]]:
     """Cached: every reset of the same scene grounds the same floor."""
     xs = [x for x, _, _ in geometry] or [0.0]
     zs = [z for _, z, _ in geometry] or [0.0]
