@@ -28,7 +28,7 @@ class Observation:
     action_menu: list[MenuEntry]
     inventories: dict[str, list[str]]
     messages: list[dict[str, Any]] = field(default_factory=list)
-    frames: dict[str, bytes] = field(default_factory=dict)
+    frames: dict[str, bytes] = field(default_factory=dict)  # filled when Episode(frames=True)
 
     def menu_for(self, agent: str) -> list[MenuEntry]:
         """One agent's own menu entries."""
@@ -67,6 +67,7 @@ class Episode:
         self.board: list[dict[str, Any]] = []
         self._space: ActionSpace | None = None
         self._space_key: tuple = ()
+        self._frame_cache: dict[tuple[int, str], bytes] = {}
         self._metadata: list[Metadata] = []
 
     # -- lifecycle ---------------------------------------------------------------------
@@ -137,7 +138,7 @@ class Episode:
             action_menu=compact(space, self.config, objects),
             inventories=self.inventories(),
             messages=list(self.board),
-            frames=self._frames() if self.frames else {},
+            frames={a: self.frame(a) for a in self.config.agent_ids} if self.frames else {},
         )
 
     def evaluate(self) -> dict[str, Any]:
@@ -181,8 +182,13 @@ class Episode:
         item["eval"] = goals.evaluate(self.config, self._metadata[0]["objects"], steps)
         return item
 
-    def _frames(self) -> dict[str, bytes]:
-        return {
-            a: self.controller.frame(i, self.frame_size, self.frame_size)
-            for i, a in enumerate(self.config.agent_ids)
-        }
+    def frame(self, agent: str) -> bytes:
+        """PNG of what `agent` sees now (rendered once per step, on demand)."""
+        key = (len(self.items), agent)
+        if key not in self._frame_cache:
+            # Frames of earlier steps are stale: keep only this step's.
+            self._frame_cache = {k: v for k, v in self._frame_cache.items() if k[0] == key[0]}
+            index = self.config.agent_ids.index(agent)
+            self._frame_cache[key] = self.controller.frame(index, self.frame_size,
+                                                           self.frame_size)
+        return self._frame_cache[key]

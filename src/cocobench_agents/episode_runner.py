@@ -1,0 +1,103 @@
+"""Running one episode: a task config, a planner graph, models → trajectory and result."""
+
+from __future__ import annotations
+
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from benchmark_adapter.episode import Episode
+from benchmark_adapter.metrics import EpisodeResult
+from benchmark_adapter.oracles import oracle_plan
+from benchmark_adapter.sim.protocol import Controller
+from benchmark_adapter.tasks import TaskConfig
+from cocobench_agents.graphs import PlannerContext, compiled_graph, planner_spec
+from cocobench_agents.models.protocol import ModelClient
+from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
+from cocobench_agents.tools import EpisodeTools
+
+DEFAULT_MODEL_KEY = "*"
+
+
+@dataclass(frozen=True)
+class EpisodeSpec:
+    """What to run: one instance under one condition."""
+
+    config: TaskConfig
+    planner: str = "centralized"
+    models: dict[str, str] = field(default_factory=lambda: {DEFAULT_MODEL_KEY: "greedy"})
+    obs_mode: str = "image"
+    prompt_suite: str = DEFAULT_SUITE
+    backend: str = "embedded"
+    max_steps: int | None = None  # overrides difficulty.step_budget
+    stable_ids: bool = False
+    sample_index: int = 0
+
+    @property
+    def condition(self) -> str:
+        """`C0_image`, `D1_blind`, … (the reference's condition names)."""
+        return f"{planner_spec(self.planner).code}_{self.obs_mode}"
+
+    @property
+    def budget(self) -> int | None:
+        """Landed steps allowed: `max_steps` if given, else the config's step budget."""
+        return self.max_steps if self.max_steps else self.config.budget
+
+    def model_for(self, agent: str | None) -> str:
+        """The model string deciding for `agent` (None: the team's model)."""
+        return self.models.get(agent or DEFAULT_MODEL_KEY) or self.models[DEFAULT_MODEL_KEY]
+
+    def identifiers(self) -> dict[str, Any]:
+        """What the result records about the run condition."""
+        models: dict[str, str] | str = self.model_for(None)
+        if any(k != DEFAULT_MODEL_KEY for k in self.models):
+            models = {a: self.model_for(a) for a in self.config.agent_ids}
+        return {"backend": self.backend, "models": models, "planner": self.planner,
+                "obs_mode": self.obs_mode, "prompt_suite": self.prompt_suite}
+
+
+class ClientFactory:
+    """Makes the model clients of one episode (see `models.ModelPool`)."""
+
+    def client(self, spec: str, *, episode: str, agent: str | None) -> ModelClient: ...
+
+
+def make_clients(spec: EpisodeSpec, pool: ClientFactory) -> dict[str, ModelClient]:
+    """The team's client ("*") and, for decentralized planners, one client per agent."""
+    planner = planner_spec(spec.planner)
+    if not planner.uses_models:
+        return {}
+    task = spec.config.task_id
+    clients = {DEFAULT_MODEL_KEY: pool.client(spec.model_for(None), episode=task, agent=None)}
+    if planner.decentralized:
+        for agent in spec.config.agent_ids:
+            clients[agent] = pool.client(spec.model_for(agent), episode=task, agent=agent)
+    return clients
+
+
+async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
+                      controller: Controller | None = None,
+                      trajectory_path: str | Path | None = None
+                      ) -> tuple[dict[str, Any], EpisodeResult]:
+    """Run one episode to its end; write its trajectory when a path is given."""
+    planner = planner_spec(spec.planner)
+    episode = Episode(spec.config, controller)
+    tools = EpisodeTools(episode, load_prompt_suite(spec.prompt_suite), obs_mode=spec.obs_mode,
+                         stable_ids=spec.stable_ids)
+    context = PlannerContext(
+        tools=tools, clients=make_clients(spec, pool), budget=spec.budget,
+        sample_index=spec.sample_index,
+        oracle_plan=None if planner.uses_models else oracle_plan(spec.config),
+    )
+    tools.start()
+    steps = spec.budget or 1000
+    await compiled_graph(spec.planner).ainvoke(
+        {"agents": spec.config.agent_ids, "round_index": 0, "history": {}, "messages": [],
+         "terminal_reason": None},
+        context=context,
+        # A fresh thread per episode; each landed step takes a few supersteps.
+        config={"recursion_limit": 6 * steps + 50,
+                "configurable": {"thread_id": uuid.uuid4().hex}},
+    )
+    return tools.finish(trajectory_path, **spec.identifiers())

@@ -1,0 +1,50 @@
+"""C0: one planner sees every agent's view and menu and moves one agent per step."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from langgraph.graph import END, START, StateGraph
+from langgraph.runtime import Runtime
+
+from cocobench_agents.graphs.context import PlannerContext
+from cocobench_agents.graphs.decide import decide
+from cocobench_agents.graphs.nodes import continue_or_end, observe
+from cocobench_agents.graphs.state import TEAM, PlannerState
+from cocobench_agents.prompts import history_line
+
+POLICY = "centralized_vlm"
+
+
+async def choose(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
+    """Ask the team's model for the next action of one agent."""
+    history = (state.get("history") or {}).get(TEAM, [])
+    return {"pending": [await decide(runtime.context, None, policy=POLICY, history=history)]}
+
+
+async def act(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
+    """Land the chosen call; any decision without a call ends the episode (no re-prompt)."""
+    tools = runtime.context.tools
+    decision = state["pending"][0]
+    tools.record(decision, model_call=decision["status"] != "no_actions")
+    call = decision["parsed_call"]
+    if not call:
+        tools.stop(decision)
+        return {"pending": None, "terminal_reason": decision["terminal_reason"]}
+    result = tools.land(call, decision=decision)
+    team = [*(state.get("history") or {}).get(TEAM, []),
+            history_line(call, result.success, result.errorMessage)]
+    return {"pending": None, "history": {TEAM: team}}
+
+
+def build_centralized() -> StateGraph:
+    """observe → choose → act → (observe | END)."""
+    graph = StateGraph(PlannerState, context_schema=PlannerContext)
+    graph.add_node("observe", observe)
+    graph.add_node("choose", choose)
+    graph.add_node("act", act)
+    graph.add_edge(START, "observe")
+    graph.add_conditional_edges("observe", continue_or_end("choose"), ["choose", END])
+    graph.add_edge("choose", "act")
+    graph.add_conditional_edges("act", continue_or_end("observe"), ["observe", END])
+    return graph

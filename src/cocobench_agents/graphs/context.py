@@ -1,0 +1,32 @@
+"""The runtime context of a planner graph: the live episode and the model clients."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+from cocobench_agents.models.protocol import ModelClient
+from cocobench_agents.tools import EpisodeTools
+
+
+@dataclass
+class PlannerContext:
+    """Everything a node may use besides state."""
+
+    tools: EpisodeTools
+    clients: dict[str, ModelClient]  # per agent; key "*" is the centralized / leader model
+    budget: int | None  # landed steps allowed (None: unbounded)
+    sample_index: int = 0
+    oracle_plan: Iterator[str] | None = None  # the oracle planner's live generator
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def client_for(self, agent: str | None) -> ModelClient:
+        """The model that decides for `agent` (None: the team's planner)."""
+        if agent is not None and agent in self.clients:
+            return self.clients[agent]
+        return self.clients["*"]
+
+    def budget_spent(self) -> bool:
+        """Whether the step budget is used up."""
+        return self.budget is not None and self.tools.step_index >= self.budget

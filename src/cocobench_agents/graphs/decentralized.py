@@ -1,0 +1,63 @@
+"""D0 / D1: one model per agent, all deciding on the same snapshot, landed in agent order.
+
+With `broadcast` (D1) each agent may add a `MSG:` line that its teammates read next round.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from langgraph.graph import END, START, StateGraph
+from langgraph.runtime import Runtime
+from langgraph.types import Send
+
+from cocobench_agents.graphs.context import PlannerContext
+from cocobench_agents.graphs.decide import decide
+from cocobench_agents.graphs.nodes import continue_or_end, land_round, observe
+from cocobench_agents.graphs.state import PlannerState
+
+POLICY = "distributed_vlm"
+
+
+def fan_out(state: PlannerState) -> list[Send] | str:
+    """One `decide_agent` branch per agent, each with only what that agent may know."""
+    if state.get("terminal_reason"):
+        return END
+    history = state.get("history") or {}
+    return [Send("decide_agent", {"agent": a, "history": history.get(a, []),
+                                  "messages": state.get("messages") or [],
+                                  "directive": (state.get("directives") or {}).get(a)})
+            for a in state["agents"]]
+
+
+def make_decide_agent(broadcast: bool):
+    """The per-agent decision node (a branch of the round's fan-out)."""
+    async def decide_agent(branch: dict[str, Any], runtime: Runtime[PlannerContext]
+                           ) -> dict[str, Any]:
+        messages = list(branch["messages"])
+        if branch.get("directive"):  # leader–worker: the leader's word comes last
+            messages.append({"agent": "leader", "text": branch["directive"]})
+        decision = await decide(runtime.context, branch["agent"], policy=POLICY,
+                                history=branch["history"], messages=messages,
+                                broadcast=broadcast or bool(branch.get("directive")))
+        return {"pending": [decision]}
+    return decide_agent
+
+
+def build_decentralized(broadcast: bool = False) -> StateGraph:
+    """observe → decide_agent × N (parallel) → land_round → (observe | END)."""
+    graph = StateGraph(PlannerState, context_schema=PlannerContext)
+    add_round(graph, broadcast=broadcast)
+    graph.add_edge(START, "observe")
+    graph.add_conditional_edges("observe", fan_out, ["decide_agent", END])
+    return graph
+
+
+def add_round(graph: StateGraph, *, broadcast: bool) -> None:
+    """The observe / decide_agent / land_round nodes; the caller wires what follows observe
+    (a strategy may add a step before the fan-out)."""
+    graph.add_node("observe", observe)
+    graph.add_node("decide_agent", make_decide_agent(broadcast))
+    graph.add_node("land_round", land_round)
+    graph.add_edge("decide_agent", "land_round")
+    graph.add_conditional_edges("land_round", continue_or_end("observe"), ["observe", END])

@@ -1,0 +1,55 @@
+"""One model decision: prompt → model → parsed reply → decision record.
+
+Never raises: a failing model becomes a `backend_error` decision, so one agent's trouble
+cannot fail a decentralized round (LangGraph fails a whole step when one branch raises).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from cocobench_agents.graphs.context import PlannerContext
+from cocobench_agents.models.protocol import ModelError, ModelRequest
+from cocobench_agents.prompts import parse_message, parse_reply
+from cocobench_agents.tools import model_decision, stop_decision
+
+
+def accepts_images(client: object) -> bool:
+    """Whether a client reads images (built-in clients do not; rendering them is wasted)."""
+    return bool(getattr(client, "accepts_images", True))
+
+
+async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
+                 history: Sequence[str], messages: Sequence[Mapping[str, str]] = (),
+                 broadcast: bool = False) -> dict[str, Any]:
+    """Ask `agent`'s model (the team's model when None) for its next action."""
+    tools = ctx.tools
+    client = ctx.client_for(agent)
+    prompt, images, menu = tools.prompt(agent, history, messages, broadcast,
+                                        with_images=accepts_images(client))
+    if not menu:
+        return stop_decision(policy=policy, model=client.name, agent=agent,
+                             step_index=tools.step_index, status="no_actions")
+    request = ModelRequest(prompt=prompt, images=images, menu=tools.menu_options(menu),
+                           agent=agent, sample_index=ctx.sample_index)
+    started = time.perf_counter()
+    try:
+        reply = await client.complete(request)
+    except ModelError as error:
+        return model_decision(policy=policy, model=client.name, agent=agent,
+                              step_index=tools.step_index, prompt=prompt, parsed=None,
+                              call=None, error=error)
+    except Exception as exc:  # noqa: BLE001 - any client failure idles this agent only
+        error = ModelError("other", repr(exc), latency_s=time.perf_counter() - started)
+        return model_decision(policy=policy, model=client.name, agent=agent,
+                              step_index=tools.step_index, prompt=prompt, parsed=None,
+                              call=None, error=error)
+    parsed = parse_reply(reply.text, [e.action_id for e in menu])
+    call = next((e.call for e in menu if e.action_id == parsed.action_id), None)
+    call = call if parsed.status == "action" else None
+    return model_decision(policy=policy, model=client.name, agent=agent,
+                          step_index=tools.step_index, prompt=prompt, parsed=parsed,
+                          call=call, reply=reply,
+                          message=parse_message(reply.text) if broadcast else "")

@@ -1,0 +1,31 @@
+"""Planner graph state: plain, serialisable data only.
+
+The live `Episode` and the model clients reach nodes through the runtime context
+(`context.py`), never through state.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, TypedDict
+
+TEAM = "__team__"  # history key of a centralized planner (one history for the whole team)
+
+
+def collect(old: list[dict[str, Any]] | None, new: list[dict[str, Any]] | None
+            ) -> list[dict[str, Any]]:
+    """Reducer for a round's decisions: fan-out branches append; `None` clears."""
+    if new is None:
+        return []
+    return [*(old or []), *new]
+
+
+class PlannerState(TypedDict, total=False):
+    """What a planner carries from step to step."""
+
+    agents: list[str]  # the team, in config order
+    round_index: int
+    history: dict[str, list[str]]  # per agent (or TEAM): "call -> ok" / "call -> FAIL(…)"
+    messages: list[dict[str, Any]]  # the broadcast board: {round, agent, text}
+    pending: Annotated[list[dict[str, Any]], collect]  # this step's / round's decisions
+    directives: dict[str, str]  # leader–worker: the leader's instruction per agent
+    terminal_reason: str | None

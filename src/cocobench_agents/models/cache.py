@@ -1,0 +1,101 @@
+"""On-disk response cache: one small JSON file per (model, messages, parameters, sample)."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from .protocol import ModelReply
+
+CACHE_FORMAT = 1  # bump when the key or the file layout changes: old entries then miss
+_DATA_URL_PREFIX = "data:"
+
+
+def cache_key(
+    model: str, messages: list[dict[str, Any]], params: dict[str, Any], sample_index: int
+) -> str:
+    """The hex sha256 naming a request. Images count by the sha256 of their data URL, so
+    keys stay cheap to compute and the files small; where the model is served (api_base),
+    timeouts and keys are not part of it."""
+    payload = {
+        "format": CACHE_FORMAT,
+        "model": model,
+        "messages": _hash_images(messages),
+        "params": params,
+        "sample_index": sample_index,
+    }
+    blob = json.dumps(payload, sort_keys=True, ensure_ascii=False, default=repr)
+    return hashlib.sha256(blob.encode("utf-8")).hexdigest()
+
+
+def _hash_images(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _hash_images(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_hash_images(v) for v in value]
+    if isinstance(value, str) and value.startswith(_DATA_URL_PREFIX) and len(value) > 256:
+        return "sha256:" + hashlib.sha256(value.encode("ascii", "replace")).hexdigest()
+    return value
+
+
+class ResponseCache:
+    """Replies stored under ``DIR/<key[:2]>/<key>.json``.
+
+    Writes are atomic (a temporary file in the same folder, then `os.replace`), so concurrent
+    writers of one key, threads or processes, leave one complete file; a reader never sees a
+    partial one. An unreadable or foreign file is a miss.
+    """
+
+    def __init__(self, directory: str | Path) -> None:
+        self.directory = Path(directory)
+
+    def path(self, key: str) -> Path:
+        """The file holding `key`."""
+        return self.directory / key[:2] / f"{key}.json"
+
+    def get(self, key: str) -> ModelReply | None:
+        """The stored reply with ``cached=True``, or None on a miss."""
+        try:
+            data = json.loads(self.path(key).read_text(encoding="utf-8"))
+            if data.get("format") != CACHE_FORMAT or data.get("key") != key:
+                return None
+            reply = data["reply"]
+            return ModelReply(
+                text=str(reply["text"]),
+                prompt_tokens=int(reply.get("prompt_tokens", 0)),
+                completion_tokens=int(reply.get("completion_tokens", 0)),
+                cost_usd=float(reply.get("cost_usd", 0.0)),
+                latency_s=float(reply.get("latency_s", 0.0)),
+                retries=int(reply.get("retries", 0)),
+                cached=True,
+            )
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            return None
+
+    def put(self, key: str, reply: ModelReply, *, model: str, sample_index: int) -> Path:
+        """Store `reply` under `key`; returns the file written."""
+        target = self.path(key)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        record = {
+            "format": CACHE_FORMAT,
+            "key": key,
+            "model": model,
+            "sample_index": sample_index,
+            "reply": {**dataclasses.asdict(reply), "cached": False},
+        }
+        fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".tmp", dir=target.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                json.dump(record, fh, ensure_ascii=False)
+            os.replace(tmp, target)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        return target

@@ -1,0 +1,69 @@
+"""The `ModelClient` protocol: how planners talk to any model, built-in or remote."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+
+@dataclass(frozen=True)
+class MenuOption:
+    """One menu entry as a model client may see it (built-in clients choose from these;
+    constrained decoding builds its grammar from their ids)."""
+
+    action_id: int
+    skill: str
+    call: str
+
+
+@dataclass(frozen=True)
+class ModelRequest:
+    """One planner decision to make."""
+
+    prompt: str
+    images: tuple[bytes, ...] = ()  # PNG frames, sent in image mode only
+    menu: tuple[MenuOption, ...] = ()  # the ids the prompt offers
+    agent: str | None = None  # the deciding agent (None for a centralized planner)
+    sample_index: int = 0  # epoch / repeated sample; part of the cache key
+
+
+@dataclass(frozen=True)
+class ModelReply:
+    """A model's answer and what it cost."""
+
+    text: str
+    prompt_tokens: int = 0
+    completion_tokens: int = 0
+    cost_usd: float = 0.0
+    latency_s: float = 0.0
+    retries: int = 0
+    cached: bool = False
+
+
+@dataclass
+class ModelError(Exception):
+    """The model gave no usable answer after retries (a `backend_error` decision).
+
+    `kind` is one of: transient (retries exhausted), timeout, rate_limit, context_window,
+    bad_request, auth, not_found, empty, other.
+    """
+
+    kind: str
+    message: str
+    retries: int = 0
+    latency_s: float = 0.0
+    extra: dict = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        return f"{self.kind}: {self.message}"
+
+
+@runtime_checkable
+class ModelClient(Protocol):
+    """Anything that can answer a `ModelRequest`."""
+
+    name: str  # the model string recorded in decisions and results
+
+    async def complete(self, request: ModelRequest) -> ModelReply:
+        """Answer one request; raise `ModelError` when no usable answer can be had."""
+        ...

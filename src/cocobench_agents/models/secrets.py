@@ -1,0 +1,59 @@
+"""Keep API keys out of everything we write: messages, errors, records and cache files."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping
+
+#: Environment variables whose names end like this hold secrets.
+SECRET_SUFFIXES = ("_API_KEY", "_TOKEN", "_SECRET")
+#: What a secret is replaced with.
+REDACTED = "[REDACTED]"
+# Values this short are too likely to occur by chance ("1", "true") to be scrubbed safely.
+_MIN_SECRET_LEN = 6
+
+
+def is_secret_name(name: str) -> bool:
+    """Whether an environment variable of this name holds a secret."""
+    return name.upper().endswith(SECRET_SUFFIXES)
+
+
+def secret_values(
+    extra: Iterable[str | None] = (), environ: Mapping[str, str] | None = None
+) -> list[str]:
+    """The secret values to scrub: every secret-named environment variable plus `extra`,
+    longest first (so a secret that contains another is replaced whole)."""
+    env = os.environ if environ is None else environ
+    values = {v for k, v in env.items() if is_secret_name(k) and v}
+    values.update(v for v in extra if v)
+    return sorted((v for v in values if len(v) >= _MIN_SECRET_LEN), key=len, reverse=True)
+
+
+def redact(text: str, extra: Iterable[str | None] = ()) -> str:
+    """`text` with every secret value (see `secret_values`) replaced by `REDACTED`."""
+    if not text:
+        return text
+    return _scrub(text, secret_values(extra))
+
+
+def redact_obj(obj: object, extra: Iterable[str | None] = ()) -> object:
+    """A copy of a JSON-like value (dicts, lists, strings, scalars) with secrets redacted
+    in every string, keys included."""
+    return _scrub_obj(obj, secret_values(extra))
+
+
+def _scrub(text: str, values: list[str]) -> str:
+    for value in values:
+        if value in text:
+            text = text.replace(value, REDACTED)
+    return text
+
+
+def _scrub_obj(obj: object, values: list[str]) -> object:
+    if isinstance(obj, str):
+        return _scrub(obj, values)
+    if isinstance(obj, Mapping):
+        return {_scrub_obj(k, values): _scrub_obj(v, values) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_scrub_obj(v, values) for v in obj]
+    return obj

@@ -1,0 +1,131 @@
+"""`ModelSettings`: how remote models are called (endpoint, key, timeouts, retries, sampling)."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .secrets import redact_obj
+
+#: `temperature` value meaning "as the reference": 0 for OpenAI model names starting with
+#: gpt/o1/o3/o4, not sent otherwise.
+TEMPERATURE_AUTO = "auto"
+_REFERENCE_T0_PREFIXES = ("gpt", "o1", "o3", "o4")
+
+
+@dataclass(frozen=True)
+class ModelSettings:
+    """Settings shared by every remote model of a run.
+
+    * `api_base`: endpoint URL (e.g. ``http://127.0.0.1:8080/v1`` for a local llama.cpp or
+      vLLM server); None = the provider's default.
+    * `api_key_env`: the NAME of the environment variable holding the key (the key itself is
+      never stored here, nor in records or files); None = LiteLLM's provider default
+      (``OPENAI_API_KEY``, ``ANTHROPIC_API_KEY``, ...).
+    * `timeout_s`: HTTP timeout of the first attempt; attempt n gets ``timeout_s × n`` (as the
+      reference).
+    * `max_retries`: retries after the first attempt on transient errors, so
+      ``max_retries + 1`` attempts in all. The default 2 gives the reference's 3 attempts.
+    * `max_concurrency`: requests in flight per model (further requests queue).
+    * `temperature`: a float is always sent; None is never sent; ``"auto"`` follows the
+      reference (0 for model names starting gpt/o1/o3/o4, nothing otherwise).
+    * `max_tokens`: completion limit; None = not sent.
+    * `extra_params`: merged into every call (e.g. ``{"extra_body": {...}, "top_p": 0.9}``).
+    * `grammar`: constrained decoding: send a GBNF grammar built from the menu
+      (``extra_body.grammar``, understood by llama.cpp's server).
+    * `cache_dir`: on-disk response cache folder; None = no cache.
+    * `seed`: sent as ``seed + sample_index`` when set; also seeds the ``random`` built-in.
+    * `backoff_s` / `backoff_max_s`: exponential backoff with full jitter between retries
+      (``random(0, min(backoff_max_s, backoff_s × 2^n))``).
+    * `max_reply_chars`: longer replies are truncated and marked (see `TRUNCATION_MARKER`).
+    """
+
+    api_base: str | None = None
+    api_key_env: str | None = None
+    timeout_s: float = 180.0
+    max_retries: int = 2
+    max_concurrency: int = 16
+    temperature: float | str | None = TEMPERATURE_AUTO
+    max_tokens: int | None = None
+    extra_params: dict[str, Any] = field(default_factory=dict)
+    grammar: bool = False
+    cache_dir: str | Path | None = None
+    seed: int | None = None
+    backoff_s: float = 1.0
+    backoff_max_s: float = 30.0
+    max_reply_chars: int = 16_384
+
+    def __post_init__(self) -> None:
+        # A private copy, so later changes to the caller's dict cannot leak into a run.
+        object.__setattr__(self, "extra_params", dict(self.extra_params or {}))
+        if self.cache_dir is not None:
+            object.__setattr__(self, "cache_dir", Path(self.cache_dir))
+        if self.timeout_s <= 0:
+            raise ValueError(f"timeout_s must be > 0, got {self.timeout_s}")
+        if self.max_retries < 0:
+            raise ValueError(f"max_retries must be >= 0, got {self.max_retries}")
+        if self.max_concurrency < 1:
+            raise ValueError(f"max_concurrency must be >= 1, got {self.max_concurrency}")
+        if self.backoff_s < 0 or self.backoff_max_s < 0:
+            raise ValueError("backoff_s and backoff_max_s must be >= 0")
+        if self.max_reply_chars < 1:
+            raise ValueError(f"max_reply_chars must be >= 1, got {self.max_reply_chars}")
+        if isinstance(self.temperature, str) and self.temperature != TEMPERATURE_AUTO:
+            raise ValueError(
+                f"temperature must be a number, None or {TEMPERATURE_AUTO!r}, "
+                f"got {self.temperature!r}"
+            )
+        if self.api_key_env is not None and not self.api_key_env.isidentifier():
+            # Catches the easy mistake of passing the key itself instead of the variable name.
+            raise ValueError("api_key_env must be the NAME of an environment variable")
+
+    @property
+    def max_attempts(self) -> int:
+        """Attempts in all: the first plus `max_retries`."""
+        return self.max_retries + 1
+
+    def api_key(self) -> str | None:
+        """The key from `api_key_env`, or None when unset (LiteLLM then uses its defaults)."""
+        if not self.api_key_env:
+            return None
+        return os.environ.get(self.api_key_env) or None
+
+    def temperature_for(self, model: str) -> float | None:
+        """The temperature to send for `model`, or None to send none."""
+        if self.temperature == TEMPERATURE_AUTO:
+            name = model.rsplit("/", 1)[-1].lower()
+            return 0.0 if name.startswith(_REFERENCE_T0_PREFIXES) else None
+        return None if self.temperature is None else float(self.temperature)
+
+    def to_record(self) -> dict[str, Any]:
+        """A JSON-safe description for run metadata: no key, only the variable's name."""
+        record = {
+            "api_base": self.api_base,
+            "api_key_env": self.api_key_env,
+            "timeout_s": self.timeout_s,
+            "max_retries": self.max_retries,
+            "max_concurrency": self.max_concurrency,
+            "temperature": self.temperature,
+            "max_tokens": self.max_tokens,
+            "extra_params": _json_safe(self.extra_params),
+            "grammar": self.grammar,
+            "cache_dir": None if self.cache_dir is None else str(self.cache_dir),
+            "seed": self.seed,
+            "backoff_s": self.backoff_s,
+            "backoff_max_s": self.backoff_max_s,
+            "max_reply_chars": self.max_reply_chars,
+        }
+        # extra_params may carry headers or tokens a user put there by hand.
+        return redact_obj(record, [self.api_key()])  # type: ignore[return-value]
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return repr(value)

@@ -1,0 +1,106 @@
+"""Rendering the planner prompts from a suite's templates (reference §6.2, §6.3)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+from cocobench_agents.prompts.suite import PromptSuite
+
+
+@dataclass(frozen=True)
+class PromptInputs:
+    """Everything a prompt shows, as plain data."""
+
+    agents: Sequence[str]
+    goal_text: str
+    progress_text: str
+    hint: str
+    menu_lines: Sequence[str]
+    history: Sequence[str]  # "call -> ok" / "call -> FAIL(…)", oldest first
+    inventories: Mapping[str, Sequence[str]]
+    obs_mode: str  # "image" | "blind"
+    messages: Sequence[Mapping[str, str]] = field(default_factory=tuple)  # {agent, text}
+
+
+def render_centralized(suite: PromptSuite, inputs: PromptInputs) -> str:
+    """The centralized planner's prompt (one planner, every agent's menu)."""
+    agents = ", ".join(inputs.agents)
+    state_lines = [f"  {a}: holding={_holding(inputs.inventories.get(a))}" for a in inputs.agents]
+    return suite.template("centralized").format(
+        n=len(inputs.agents), agents=agents,
+        view=suite.template(f"view_{inputs.obs_mode}_centralized").format(agents=agents),
+        goal=inputs.goal_text,
+        progress_section=_progress(suite, inputs),
+        hint=_hint(inputs),
+        menu="\n".join(inputs.menu_lines),
+        history_section=_history(suite, inputs, "centralized"),
+        state=suite.template("state_centralized").format(agent_lines="\n".join(state_lines)),
+    )
+
+
+def render_leader(suite: PromptSuite, inputs: PromptInputs) -> str:
+    """The leader–worker strategy's leader prompt: one instruction per robot."""
+    agents = ", ".join(inputs.agents)
+    state_lines = [f"  {a}: holding={_holding(inputs.inventories.get(a))}" for a in inputs.agents]
+    return suite.template("leader").format(
+        n=len(inputs.agents), agents=agents,
+        view=suite.template(f"view_{inputs.obs_mode}_centralized").format(agents=agents),
+        goal=inputs.goal_text,
+        progress_section=_progress(suite, inputs),
+        hint=_hint(inputs),
+        reply_format="\n".join(f"{a}: <instruction>" for a in inputs.agents),
+        menu="\n".join(inputs.menu_lines),
+        history_section=_history(suite, inputs, "centralized"),
+        state=suite.template("state_centralized").format(agent_lines="\n".join(state_lines)),
+    )
+
+
+def render_distributed(suite: PromptSuite, inputs: PromptInputs, me: str, broadcast: bool
+                       ) -> str:
+    """One agent's prompt in a decentralized team; `broadcast` adds the message board."""
+    comm = msg_hint = ""
+    if broadcast:
+        window = suite.setting("message_window", 6)
+        others = [m for m in inputs.messages if m.get("agent") != me][-window:]
+        board = "\n".join(f"  {m.get('agent')}: {m.get('text')}" for m in others)
+        comm = suite.template("comm_block").format(board=board or "  (no messages yet)")
+        msg_hint = suite.template("msg_hint")
+    return suite.template("distributed").format(
+        me=me, n=len(inputs.agents), agents=", ".join(inputs.agents),
+        view=suite.template(f"view_{inputs.obs_mode}_distributed"),
+        goal=inputs.goal_text,
+        progress_section=_progress(suite, inputs),
+        hint=_hint(inputs), comm=comm, msg_hint=msg_hint,
+        menu="\n".join(inputs.menu_lines),
+        history_section=_history(suite, inputs, "distributed"),
+        inv=_holding(inputs.inventories.get(me)),
+    )
+
+
+def _progress(suite: PromptSuite, inputs: PromptInputs) -> str:
+    if "no-progress" in suite.variants:
+        return ""
+    return suite.template("progress_section").format(goal_progress=inputs.progress_text)
+
+
+def _history(suite: PromptSuite, inputs: PromptInputs, kind: str) -> str:
+    if "no-history" in suite.variants:
+        return ""
+    window = suite.setting("history_window", 6)
+    lines = [f"  {i}. {h}" for i, h in enumerate(list(inputs.history)[-window:], 1)]
+    return suite.template(f"history_section_{kind}").format(
+        history="\n".join(lines) or "  (none yet)")
+
+
+def _hint(inputs: PromptInputs) -> str:
+    return inputs.hint + "\n" if inputs.hint else ""
+
+
+def _holding(ids: Sequence[str] | None) -> str:
+    return ", ".join(ids or []) or "empty"
+
+
+def history_line(call: str, success: bool, error: str, error_chars: int = 60) -> str:
+    """One history entry: `call -> ok` or `call -> FAIL(first 60 chars of the error)`."""
+    return f"{call} -> ok" if success else f"{call} -> FAIL({(error or '')[:error_chars]})"

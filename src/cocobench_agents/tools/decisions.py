@@ -1,0 +1,57 @@
+"""Decision records: one per model call (or stop), in the reference's `policy_decision` shape
+plus what an evaluation harness needs (prompt hash, latency, tokens, cost, retries)."""
+
+from __future__ import annotations
+
+import hashlib
+from typing import Any
+
+from cocobench_agents.models.protocol import ModelError, ModelReply
+from cocobench_agents.prompts import ParsedReply
+
+
+def prompt_hash(prompt: str) -> str:
+    """Short stable fingerprint of a rendered prompt."""
+    return hashlib.sha256(prompt.encode("utf-8")).hexdigest()[:16]
+
+
+def model_decision(*, policy: str, model: str, agent: str | None, step_index: int,
+                   prompt: str, parsed: ParsedReply | None, call: str | None,
+                   reply: ModelReply | None = None, error: ModelError | None = None,
+                   message: str = "") -> dict[str, Any]:
+    """The record of one model call: its parse outcome or its backend error."""
+    status = "backend_error" if error else parsed.status
+    record: dict[str, Any] = {
+        "policy": policy, "backend": _provider(model), "model": model, "agent": agent,
+        "step_index": step_index, "status": status,
+        "terminal_reason": None if call else status,
+        "parsed_action_id": parsed.raw_choice if parsed else None,
+        "parsed_call": call, "parse_mode": parsed.mode if parsed else None,
+        "prompt_hash": prompt_hash(prompt),
+    }
+    if reply is not None:
+        record.update(raw_output=reply.text, latency_s=round(reply.latency_s, 4),
+                      prompt_tokens=reply.prompt_tokens,
+                      completion_tokens=reply.completion_tokens,
+                      cost_usd=reply.cost_usd, retries=reply.retries, cached=reply.cached)
+    if error is not None:
+        record.update(error=str(error), error_kind=error.kind, retries=error.retries,
+                      latency_s=round(error.latency_s, 4))
+    elif parsed is not None and parsed.error:
+        record["error"] = parsed.error
+    if message:
+        record["message"] = message
+    return record
+
+
+def stop_decision(*, policy: str, model: str | None, agent: str | None, step_index: int,
+                  status: str) -> dict[str, Any]:
+    """A decision without a model call: an empty menu, the step budget, an all-idle round."""
+    return {"policy": policy, "backend": _provider(model) if model else None, "model": model,
+            "agent": agent, "step_index": step_index, "status": status,
+            "terminal_reason": status}
+
+
+def _provider(model: str) -> str:
+    """The backend part of a model string (`openai/gpt-4o` → `openai`; built-ins as is)."""
+    return model.split("/", 1)[0] if "/" in model else model.split(":", 1)[0]

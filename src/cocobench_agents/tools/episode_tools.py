@@ -1,0 +1,154 @@
+"""`EpisodeTools`: the adapter between planner graphs and a live `Episode`.
+
+Graph nodes never touch the simulator directly: they ask this object for the observation a
+prompt needs, hand back the calls to land, and record every decision. At the end it emits the
+scored trajectory.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from benchmark_adapter.episode import Episode, Observation
+from benchmark_adapter.menu import MenuEntry, menu_lines
+from benchmark_adapter.metrics import EpisodeResult, score_trajectory
+from benchmark_adapter.sim.embedded.render import merge_agent_frames
+from benchmark_adapter.skills import SkillResult
+from benchmark_adapter.trajectory import write_json_atomic
+from cocobench_agents.models.protocol import MenuOption
+from cocobench_agents.prompts import (
+    PromptInputs,
+    PromptSuite,
+    coordination_hint,
+    render_centralized,
+    render_distributed,
+    render_leader,
+)
+
+COUNTED_PARSE_ERRORS = ("parse_error", "invalid_action_id")
+
+
+class EpisodeTools:
+    """One episode as a planner sees it."""
+
+    def __init__(self, episode: Episode, suite: PromptSuite, *, obs_mode: str = "image",
+                 stable_ids: bool = False) -> None:
+        if obs_mode not in ("image", "blind"):
+            raise ValueError(f"obs_mode must be 'image' or 'blind', not {obs_mode!r}")
+        self.episode, self.suite, self.obs_mode = episode, suite, obs_mode
+        self.stable_ids = stable_ids
+        self.config = episode.config
+        self.hint = coordination_hint(self.config, suite)
+        self.decisions: list[dict[str, Any]] = []
+        self.counters = {"planner_steps": 0, "parse_errors": 0, "backend_errors": 0}
+        self._stable: dict[str, int] = {}
+        self.snapshot: Observation | None = None
+
+    # -- observation -------------------------------------------------------------------
+
+    @property
+    def agents(self) -> list[str]:
+        return self.config.agent_ids
+
+    @property
+    def step_index(self) -> int:
+        return self.episode.step_index
+
+    def start(self) -> Observation:
+        """Reset the episode and take the first snapshot."""
+        self.episode.reset()
+        return self.refresh()
+
+    def refresh(self) -> Observation:
+        """Take a new snapshot; every decision of a round reads the same one."""
+        self.snapshot = self.episode.observe()
+        return self.snapshot
+
+    def menu(self, agent: str | None = None) -> list[MenuEntry]:
+        """The menu shown to `agent` (all agents' entries for a centralized planner)."""
+        entries = (self.snapshot.action_menu if agent is None
+                   else self.snapshot.menu_for(agent))
+        if not self.stable_ids:
+            return entries
+        # Stable ids: a call keeps the id it was first shown with for the whole episode.
+        return [dataclasses.replace(e, action_id=self._stable.setdefault(e.call,
+                                                                         len(self._stable) + 1))
+                for e in entries]
+
+    def prompt(self, agent: str | None, history: Sequence[str],
+               messages: Sequence[Mapping[str, str]] = (), broadcast: bool = False,
+               with_images: bool = True) -> tuple[str, tuple[bytes, ...], list[MenuEntry]]:
+        """Prompt text, images and menu for one decision (`agent=None`: centralized).
+
+        Images are rendered only in image mode and only for a model that reads them.
+        """
+        menu = self.menu(agent)
+        inputs = self._inputs(menu, agent is None, history, messages)
+        if agent is None:
+            text = render_centralized(self.suite, inputs)
+        else:
+            text = render_distributed(self.suite, inputs, agent, broadcast)
+        return text, self._images(agent) if with_images else (), menu
+
+    def leader_prompt(self, history: Sequence[str], with_images: bool = True
+                      ) -> tuple[str, tuple[bytes, ...]]:
+        """The leader–worker strategy's leader prompt and images (the team view)."""
+        inputs = self._inputs(self.menu(None), True, history, ())
+        return render_leader(self.suite, inputs), self._images(None) if with_images else ()
+
+    def _inputs(self, menu: Sequence[MenuEntry], centralized: bool, history: Sequence[str],
+                messages: Sequence[Mapping[str, str]]) -> PromptInputs:
+        snap = self.snapshot
+        return PromptInputs(
+            agents=self.agents, goal_text=snap.goal_text, progress_text=snap.progress_text,
+            hint=self.hint, menu_lines=menu_lines(menu, centralized=centralized),
+            history=history, inventories=snap.inventories, obs_mode=self.obs_mode,
+            messages=messages,
+        )
+
+    def _images(self, agent: str | None) -> tuple[bytes, ...]:
+        if self.obs_mode != "image":
+            return ()
+        if agent is not None:
+            return (self.episode.frame(agent),)
+        return (merge_agent_frames([(a, self.episode.frame(a)) for a in self.agents]),)
+
+    # -- acting and recording ------------------------------------------------------------
+
+    def land(self, call: str, *, decision: dict[str, Any] | None = None,
+             round_index: int | None = None, message: str | None = None) -> SkillResult:
+        """Execute one chosen call as a recorded step."""
+        return self.episode.step(call, round_index=round_index, message=message,
+                                 decision=decision)
+
+    def record(self, decision: dict[str, Any], model_call: bool = True) -> dict[str, Any]:
+        """Count a decision (cumulative counters, as the reference records them) and keep it."""
+        if model_call:
+            self.counters["planner_steps"] += 1
+        if decision["status"] in COUNTED_PARSE_ERRORS:
+            self.counters["parse_errors"] += 1
+        if decision["status"] == "backend_error":
+            self.counters["backend_errors"] += 1
+        decision.update(self.counters)
+        self.decisions.append(decision)
+        return decision
+
+    def stop(self, decision: dict[str, Any]) -> None:
+        """Record the decision that ended the episode."""
+        self.episode.stop(decision)
+
+    def finish(self, path: str | Path | None = None, **identifiers: Any
+               ) -> tuple[dict[str, Any], EpisodeResult]:
+        """The trajectory (with every decision) and its scored result."""
+        document = self.episode.finish()
+        document["planner_decisions"] = self.decisions
+        if path is not None:
+            write_json_atomic(path, document)
+        return document, score_trajectory(document, **identifiers)
+
+    def menu_options(self, menu: Sequence[MenuEntry]) -> tuple[MenuOption, ...]:
+        """The menu as model clients see it."""
+        return tuple(MenuOption(e.action_id, e.skill, e.call) for e in menu)
