@@ -5,7 +5,7 @@ from __future__ import annotations
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.metrics import EpisodeResult
@@ -33,6 +33,12 @@ class EpisodeSpec:
     max_steps: int | None = None  # overrides difficulty.step_budget
     stable_ids: bool = False
     sample_index: int = 0
+    episode_key: str = ""  # names the episode to stateful clients (random streams, replay)
+
+    @property
+    def episode(self) -> str:
+        """The episode's name for model clients: its run key, else the task id."""
+        return self.episode_key or self.config.task_id
 
     @property
     def condition(self) -> str:
@@ -57,10 +63,12 @@ class EpisodeSpec:
                 "obs_mode": self.obs_mode, "prompt_suite": self.prompt_suite}
 
 
-class ClientFactory:
+class ClientFactory(Protocol):
     """Makes the model clients of one episode (see `models.ModelPool`)."""
 
     def client(self, spec: str, *, episode: str, agent: str | None) -> ModelClient: ...
+
+    def release(self, episode: str) -> None: ...
 
 
 def make_clients(spec: EpisodeSpec, pool: ClientFactory) -> dict[str, ModelClient]:
@@ -68,7 +76,7 @@ def make_clients(spec: EpisodeSpec, pool: ClientFactory) -> dict[str, ModelClien
     planner = planner_spec(spec.planner)
     if not planner.uses_models:
         return {}
-    task = spec.config.task_id
+    task = spec.episode
     clients = {DEFAULT_MODEL_KEY: pool.client(spec.model_for(None), episode=task, agent=None)}
     if planner.decentralized:
         for agent in spec.config.agent_ids:
@@ -92,6 +100,14 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
     )
     tools.start()
     steps = spec.budget or 1000
+    try:
+        await _invoke(spec, context, steps)
+    finally:
+        pool.release(spec.episode)
+    return tools.finish(trajectory_path, **spec.identifiers())
+
+
+async def _invoke(spec: EpisodeSpec, context: PlannerContext, steps: int) -> None:
     await compiled_graph(spec.planner).ainvoke(
         {"agents": spec.config.agent_ids, "round_index": 0, "history": {}, "messages": [],
          "terminal_reason": None},
@@ -100,4 +116,3 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
         config={"recursion_limit": 6 * steps + 50,
                 "configurable": {"thread_id": uuid.uuid4().hex}},
     )
-    return tools.finish(trajectory_path, **spec.identifiers())

@@ -46,6 +46,7 @@ from .steps import (
     extract_steps,
     step_taxonomy,
 )
+from .usage import ModelUsage, model_usage
 
 __all__ = [
     "DIMENSIONS",
@@ -59,6 +60,7 @@ __all__ = [
     "DistributedMetrics",
     "EpisodeResult",
     "GeneralMetrics",
+    "ModelUsage",
     "PlannerStats",
     "Step",
     "TrajectoryError",
@@ -76,6 +78,7 @@ __all__ = [
     "general_metrics",
     "goal_success",
     "legal_plan",
+    "model_usage",
     "planner_stats",
     "policy_decisions",
     "score_trajectory",

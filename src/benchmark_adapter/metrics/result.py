@@ -12,10 +12,12 @@ from .errors import TrajectoryError
 from .failures import failure_kind, planner_stats, terminal_reason
 from .general import DistributedMetrics, GeneralMetrics, distributed_metrics, general_metrics
 from .steps import step_taxonomy, task_config
+from .usage import ModelUsage, model_usage
 
 #: Identifiers the caller supplies (everything else comes from the trajectory).
 RUN_IDENTIFIERS: frozenset[str] = frozenset(
-    {"backend", "models", "planner", "obs_mode", "prompt_suite"}
+    {"backend", "models", "planner", "obs_mode", "prompt_suite", "condition", "epoch",
+     "elapsed_s", "trajectory"}
 )
 
 
@@ -43,6 +45,10 @@ class EpisodeResult(BaseModel):
     planner: str | None = None
     obs_mode: str | None = None
     prompt_suite: str | None = None
+    condition: str | None = None  # e.g. C0_image
+    epoch: int | None = None
+    elapsed_s: float | None = None  # wall time of the episode
+    trajectory: str | None = None  # path of the trajectory file, relative to the run folder
     # the reference's flat per-episode keys
     task_success: int
     task_progress: float | None
@@ -71,6 +77,7 @@ class EpisodeResult(BaseModel):
     general: GeneralMetrics
     distributed: DistributedMetrics | None
     cross_construct: dict[str, ConstructScore]
+    usage: ModelUsage | None = None
 
 
 def _trajectory_identifiers(traj: Mapping[str, Any]) -> dict[str, Any]:
@@ -140,4 +147,5 @@ def score_trajectory(traj: Mapping[str, Any], **identifiers: Any) -> EpisodeResu
         general=general,
         distributed=distributed_metrics(traj),
         cross_construct=cross_construct_scores(traj),
+        usage=model_usage(traj),
     )

@@ -7,12 +7,20 @@ import sys
 import click
 
 from benchmark_adapter.tasks import TaskConfigError
+from cocobench_agents.graphs import UnknownPlanner
+from cocobench_agents.harness import PlanError, RunFolderError
+from cocobench_agents.models import ModelConfigError
+from cocobench_agents.prompts import PromptSuiteError
 from cocobench_agents import __version__
 from cocobench_agents.cli.list_cmd import list_command
+from cocobench_agents.cli.run_cmd import run_command
 from cocobench_agents.cli.score_cmd import score_command
 from cocobench_agents.cli.validate_cmd import validate_command
 
 USAGE_ERROR = 2
+# Mistakes in what the user asked for: reported in one line, exit code 2, no traceback.
+USER_ERRORS = (TaskConfigError, ModelConfigError, RunFolderError, PlanError, PromptSuiteError,
+               UnknownPlanner)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -24,6 +32,7 @@ def cli() -> None:
 cli.add_command(list_command)
 cli.add_command(validate_command)
 cli.add_command(score_command)
+cli.add_command(run_command)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,7 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     except click.ClickException as exc:
         exc.show()
         return USAGE_ERROR if exc.exit_code == 2 else exc.exit_code
-    except TaskConfigError as exc:
+    except USER_ERRORS as exc:
         click.echo(f"cocobench: error: {exc}", err=True)
         return USAGE_ERROR
     return code if isinstance(code, int) else 0

@@ -34,6 +34,13 @@ def classify(litellm: ModuleType, exc: BaseException) -> tuple[str, bool]:
     if isinstance(exc, litellm.NotFoundError):
         return "not_found", False
     if isinstance(exc, (litellm.BadRequestError, litellm.UnprocessableEntityError)):
+        # LiteLLM maps by message as well as status: a 401 whose body says
+        # "invalid_request_error" arrives as a BadRequestError.
+        status = status_code(exc)
+        if status in (401, 403):
+            return "auth", False
+        if status == 404:
+            return "not_found", False
         return "bad_request", False
     if isinstance(
         exc,
@@ -72,12 +79,16 @@ def status_code(exc: BaseException) -> int | None:
 
 def retry_after_s(exc: BaseException) -> float | None:
     """The server's ``Retry-After`` in seconds (numeric form only), if the error carries one."""
-    response = getattr(exc, "response", None)
-    headers = getattr(response, "headers", None)
-    if headers is None:
-        return None
-    try:
-        value = headers.get("retry-after")
-        return None if value is None else max(0.0, float(value))
-    except (TypeError, ValueError, AttributeError):
-        return None
+    # LiteLLM keeps the provider's real headers apart; its `response` is often a stand-in.
+    candidates = (
+        getattr(exc, "litellm_response_headers", None),
+        getattr(getattr(exc, "response", None), "headers", None),
+    )
+    for headers in candidates:
+        try:
+            value = headers.get("retry-after") if headers is not None else None
+            if value is not None:
+                return max(0.0, float(value))
+        except (TypeError, ValueError, AttributeError):
+            continue
+    return None

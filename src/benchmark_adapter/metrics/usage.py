@@ -1,0 +1,44 @@
+"""What the planner's model calls cost: from the trajectory's `planner_decisions` list.
+
+`planner_decisions` is written by this framework (every decision, including those of agents
+that idled in a round, which the reference's step-attached decisions miss); trajectories
+without it have no usage block.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class ModelUsage:
+    """Totals over an episode's model calls."""
+
+    model_calls: int
+    prompt_tokens: int
+    completion_tokens: int
+    cost_usd: float
+    model_latency_s: float
+    retries: int
+    parse_errors: int  # every protocol failure, idle agents' included
+    backend_errors: int
+
+
+def model_usage(traj: Mapping[str, Any]) -> ModelUsage | None:
+    """Sum tokens, cost, latency and failures over `planner_decisions` (None if absent)."""
+    decisions = traj.get("planner_decisions")
+    if not isinstance(decisions, list):
+        return None
+    calls = [d for d in decisions if isinstance(d, Mapping) and "prompt_hash" in d]
+    return ModelUsage(
+        model_calls=len(calls),
+        prompt_tokens=sum(int(d.get("prompt_tokens") or 0) for d in calls),
+        completion_tokens=sum(int(d.get("completion_tokens") or 0) for d in calls),
+        cost_usd=round(sum(float(d.get("cost_usd") or 0.0) for d in calls), 6),
+        model_latency_s=round(sum(float(d.get("latency_s") or 0.0) for d in calls), 4),
+        retries=sum(int(d.get("retries") or 0) for d in calls),
+        parse_errors=sum(d.get("status") in ("parse_error", "invalid_action_id") for d in calls),
+        backend_errors=sum(d.get("status") == "backend_error" for d in calls),
+    )

@@ -1,0 +1,162 @@
+"""`cocobench run`: run planners on instances into a run folder (DESIGN §4)."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import click
+
+from benchmark_adapter.tasks import load_tasks, select_tasks
+from cocobench_agents.cli.run_options import model_options, model_settings, selection_options
+from cocobench_agents.graphs import planner_spec
+from cocobench_agents.harness import (
+    Condition,
+    Progress,
+    RunFolder,
+    RunOptions,
+    execute,
+    parse_conditions,
+    pending_episodes,
+    plan_episodes,
+    run_record,
+)
+from cocobench_agents.models import ModelPool
+from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
+
+DEFAULT_TASKS = "cocobench-240"
+
+
+@click.command("run")
+@click.option("--task", "tasks", multiple=True, metavar="PATH",
+              help="A task config file or folder (repeatable).")
+@click.option("--suite", metavar="SUITE|PATH",
+              help=f"A suite name or path (default: {DEFAULT_TASKS}).")
+@click.option("--planner", default="centralized", show_default=True,
+              help="centralized, decentralized, decentralized-broadcast, leader-worker, oracle.")
+@click.option("--obs", "obs_mode", type=click.Choice(["image", "blind"]), default="image",
+              show_default=True, help="Observation mode (with --planner).")
+@click.option("--conditions", metavar="LIST",
+              help="Instead of --planner/--obs: all, image, blind, or e.g. C0_image,D1_blind.")
+@click.option("--model", "models", multiple=True, metavar="M",
+              help="A LiteLLM model string or a built-in (greedy, random[:SEED], "
+                   "scripted:PATH, replay:PATH). Repeatable.")
+@click.option("--agent-model", "agent_models", multiple=True, metavar="AGENT=M",
+              help="A different model for one agent of a decentralized team (repeatable).")
+@click.option("--prompt-suite", default=DEFAULT_SUITE, show_default=True,
+              help="Prompt suite, with ablations joined by '+': cocobench-v1+no-hint.")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False),
+              help="Run folder.")
+@click.option("--jobs", "-j", type=click.IntRange(min=1), default=8, show_default=True,
+              help="Episodes run concurrently.")
+@click.option("--epochs", type=click.IntRange(min=1), default=1, show_default=True)
+@click.option("--resume", is_flag=True, help="Complete the missing episodes of --out.")
+@click.option("--retry-errors", is_flag=True,
+              help="With --resume: re-run infrastructure failures and backend errors too.")
+@click.option("--backend", default="embedded", show_default=True,
+              type=click.Choice(["embedded", "ai2thor"]))
+@click.option("--max-steps", type=click.IntRange(min=1), default=None,
+              help="Override every instance's step budget.")
+@click.option("--stable-ids", is_flag=True,
+              help="Menu ids that never shift within an episode (deviation from the reference).")
+@selection_options
+@model_options
+def run_command(**kw: Any) -> None:
+    """Run planners on CoCoBench instances and record one trajectory and one result per
+    episode. Every model × condition × instance × epoch is one episode."""
+    folder = RunFolder(kw["out"])
+    record = folder.open_for_resume() if kw["resume"] else None
+    request = _request(kw, record)
+    pool = ModelPool(model_settings(kw))
+    _check_models(pool, request["models"], request["agent_models"])
+    episodes = plan_episodes(request["tasks"], request["models"], request["conditions"],
+                             request["epochs"], request["options"])
+    if record is None:
+        folder.create(run_record(kw["out"], request, pool.settings, sys.argv))
+    todo = pending_episodes(episodes, folder, retry_errors=kw["retry_errors"])
+    click.echo(f"{len(episodes)} episodes ({len(episodes) - len(todo)} already done) "
+               f"→ {folder.path}", err=True)
+    progress = Progress(len(episodes), already_done=len(episodes) - len(todo))
+    try:
+        asyncio.run(execute(todo, folder, pool, jobs=kw["jobs"],
+                            on_result=progress.episode_done))
+    finally:
+        progress.close()
+    _summary(folder)
+
+
+def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any]:
+    """The run request from the options, checked against the recorded run when resuming."""
+    if record is not None and not (kw["tasks"] or kw["suite"] or kw["models"]):
+        kw = {**kw, **record["request"]}  # a bare --resume reuses the recorded request
+    conditions = (parse_conditions(kw["conditions"]) if kw["conditions"]
+                  else [Condition(planner_spec(kw["planner"]).name, kw["obs_mode"])])
+    needs_model = any(planner_spec(c.planner).uses_models for c in conditions)
+    models = list(kw["models"]) or ([] if needs_model else ["oracle"])
+    if needs_model and not models:
+        raise click.UsageError("--model is required (e.g. --model greedy, or a LiteLLM model)")
+    load_prompt_suite(kw["prompt_suite"])
+    sources = list(kw["tasks"]) or [kw["suite"] or DEFAULT_TASKS]
+    tasks = [t for source in sources for t in load_tasks(source)]
+    tasks = select_tasks(tasks, kw["eval_set"], only_cell=kw["only_cell"],
+                         only_family=kw["only_family"], only_dim=kw["only_dim"],
+                         task_ids=kw["task_id"], limit=kw["limit"] or 0)
+    request = {
+        "sources": sources, "tasks": tasks, "task_ids": [t.task_id for t in tasks],
+        "models": models, "agent_models": _agent_models(kw["agent_models"]),
+        "conditions": conditions, "epochs": kw["epochs"],
+        "options": RunOptions(backend=kw["backend"], prompt_suite=kw["prompt_suite"],
+                              max_steps=kw["max_steps"], stable_ids=kw["stable_ids"],
+                              agent_models=_agent_models(kw["agent_models"])),
+    }
+    if record is not None:
+        _same_as_recorded(request, record)
+    return request
+
+
+def _agent_models(pairs: tuple[str, ...] | list[str]) -> dict[str, str]:
+    out = {}
+    for pair in pairs:
+        agent, sep, model = pair.partition("=")
+        if not sep or not agent.strip() or not model.strip():
+            raise click.BadParameter(f"{pair!r}: expected AGENT=MODEL, e.g. agent_2=gpt-4o",
+                                     param_hint="--agent-model")
+        out[agent.strip()] = model.strip()
+    return out
+
+
+def _same_as_recorded(request: dict[str, Any], record: dict[str, Any]) -> None:
+    recorded = record["plan"]
+    current = {"task_ids": request["task_ids"], "models": request["models"],
+               "conditions": [c.name for c in request["conditions"]],
+               "epochs": request["epochs"]}
+    for key, value in current.items():
+        if recorded.get(key) != value:
+            raise click.UsageError(
+                f"--resume: {key} differ from the recorded run ({_short(recorded.get(key))} "
+                f"recorded, {_short(value)} asked); run with the same options or without them")
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) < 80 else text[:77] + "..."
+
+
+def _check_models(pool: ModelPool, models: list[str], agent_models: dict[str, str]) -> None:
+    """Unknown models and missing API keys are reported before any episode starts."""
+    for model in [*models, *agent_models.values()]:
+        if model != "oracle":
+            pool.validate(model)
+
+
+def _summary(folder: RunFolder) -> None:
+    rows = list(folder.results())
+    ok = [r for r in rows if not r.get("infra_error")]
+    successes = sum(int(r.get("task_success") or 0) for r in ok)
+    errors = len(rows) - len(ok)
+    click.echo(f"{len(rows)} episodes recorded in {Path(folder.path) / 'results.jsonl'}: "
+               f"{successes}/{len(ok)} succeeded" + (f", {errors} failed to run" if errors
+                                                     else ""))

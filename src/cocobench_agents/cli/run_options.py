@@ -1,0 +1,77 @@
+"""Shared option groups of `cocobench run`: instance selection and model settings."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from typing import Any
+
+import click
+
+from cocobench_agents.models import ModelSettings
+
+
+def selection_options(command: Callable) -> Callable:
+    """--eval-set / --only-* / --task-id / --limit, as the reference's evaluate_vlm.py."""
+    for option in reversed([
+        click.option("--eval-set", multiple=True, metavar="NAME",
+                     help="A cell, dim, family, curated set or task id (repeatable)."),
+        click.option("--only-cell", default=None), click.option("--only-family", default=None),
+        click.option("--only-dim", default=None),
+        click.option("--task-id", multiple=True, metavar="ID", help="Keep only these ids."),
+        click.option("--limit", type=click.IntRange(min=0), default=0,
+                     help="At most K instances (0: all)."),
+    ]):
+        command = option(command)
+    return command
+
+
+def model_options(command: Callable) -> Callable:
+    """Remote model settings (LiteLLM)."""
+    for option in reversed([
+        click.option("--api-base", default=None, help="Endpoint URL (e.g. a local server)."),
+        click.option("--api-key-env", default=None, metavar="NAME",
+                     help="Name of the environment variable holding the API key."),
+        click.option("--timeout", type=click.FloatRange(min=0.1), default=180.0,
+                     show_default=True, help="Seconds per model call (first attempt)."),
+        click.option("--max-retries", type=click.IntRange(min=0), default=2, show_default=True,
+                     help="Retries on transient model errors."),
+        click.option("--max-concurrency", type=click.IntRange(min=1), default=16,
+                     show_default=True, help="Model calls in flight per model."),
+        click.option("--temperature", type=float, default=None,
+                     help="Sampling temperature (default: the reference's rule)."),
+        click.option("--max-tokens", type=click.IntRange(min=1), default=None),
+        click.option("--grammar", is_flag=True,
+                     help="Constrain replies to the menu ids with a GBNF grammar "
+                          "(llama.cpp servers)."),
+        click.option("--cache", "cache_dir", type=click.Path(file_okay=False), default=None,
+                     help="On-disk response cache folder."),
+        click.option("--seed", type=int, default=None, help="Seed (random built-in, APIs)."),
+        click.option("--extra", "extra_json", default=None, metavar="JSON",
+                     help='Extra call parameters, e.g. \'{"top_p": 0.9}\'.'),
+    ]):
+        command = option(command)
+    return command
+
+
+def model_settings(kw: dict[str, Any]) -> ModelSettings:
+    """`ModelSettings` from the parsed options."""
+    try:
+        extra = json.loads(kw["extra_json"]) if kw.get("extra_json") else {}
+    except json.JSONDecodeError as exc:
+        raise click.BadParameter(f"not JSON: {exc}", param_hint="--extra") from None
+    if not isinstance(extra, dict):
+        raise click.BadParameter("must be a JSON object", param_hint="--extra")
+    kwargs: dict[str, Any] = {
+        "api_base": kw["api_base"], "api_key_env": kw["api_key_env"],
+        "timeout_s": kw["timeout"], "max_retries": kw["max_retries"],
+        "max_concurrency": kw["max_concurrency"], "max_tokens": kw["max_tokens"],
+        "grammar": kw["grammar"], "cache_dir": kw["cache_dir"], "seed": kw["seed"],
+        "extra_params": extra,
+    }
+    if kw["temperature"] is not None:
+        kwargs["temperature"] = kw["temperature"]
+    try:
+        return ModelSettings(**kwargs)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None

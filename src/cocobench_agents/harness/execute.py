@@ -1,0 +1,71 @@
+"""Running a plan into a run folder with bounded concurrency.
+
+Episodes run as asyncio tasks: model calls are the bottleneck and overlap, while simulator
+steps run on the event loop between them. Results for a deterministic model do not depend on
+`jobs` (each episode owns its world, clients and random streams).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from cocobench_agents.episode_runner import ClientFactory, run_episode
+from cocobench_agents.harness.plan import PlannedEpisode
+from cocobench_agents.harness.store import RunFolder
+from cocobench_agents.models.secrets import redact
+
+ResultCallback = Callable[[dict[str, Any]], None]
+
+
+async def execute(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ClientFactory,
+                  *, jobs: int = 1, on_result: ResultCallback | None = None) -> None:
+    """Run every episode, at most `jobs` at a time, appending each result as it finishes."""
+    gate = asyncio.Semaphore(max(1, jobs))
+
+    async def one(planned: PlannedEpisode) -> None:
+        async with gate:
+            record = await run_one(planned, folder, pool)
+        folder.append_result(record)
+        if on_result is not None:
+            on_result(record)
+
+    await asyncio.gather(*(one(p) for p in episodes))
+
+
+async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactory
+                  ) -> dict[str, Any]:
+    """One episode → its result line (an infrastructure failure becomes an error line)."""
+    key, spec = planned.key, planned.spec
+    started = time.perf_counter()
+    try:
+        controller = _controller(spec)
+        document, result = await run_episode(spec, pool, controller=controller)
+        relative = folder.write_trajectory(key, document)
+    except Exception as exc:  # noqa: BLE001 - one broken episode must not stop the run
+        return infra_error_record(planned, redact(repr(exc)), time.perf_counter() - started)
+    result = result.model_copy(update={
+        "condition": key.condition, "epoch": key.epoch, "trajectory": relative,
+        "elapsed_s": round(time.perf_counter() - started, 3)})
+    return {**result.model_dump(mode="json"), "model": key.model}
+
+
+def infra_error_record(planned: PlannedEpisode, error: str, elapsed: float) -> dict[str, Any]:
+    """The result line of an episode that could not run (scored as a failure, as the
+    reference does for runner_failed / timeout)."""
+    config, spec = planned.spec.config, planned.spec
+    return {**planned.key.as_dict(), "infra_error": error, "task_success": 0, "legal_plan": 0,
+            "cell": config.cell, "family": config.task_family, "dim": config.coordination_dim,
+            "agent_count": config.agent_count, "planner": spec.planner,
+            "obs_mode": spec.obs_mode, "backend": spec.backend,
+            "prompt_suite": spec.prompt_suite, "elapsed_s": round(elapsed, 3)}
+
+
+def _controller(spec):
+    if spec.backend == "embedded":
+        return None  # the Episode builds its own embedded world
+    from benchmark_adapter.sim.backends import make_controller
+
+    return make_controller(spec.config, spec.backend)

@@ -1,0 +1,131 @@
+"""What a run consists of: models × conditions × instances × epochs, in a fixed order."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+from benchmark_adapter.tasks import TaskConfig
+from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
+from cocobench_agents.graphs import PLANNERS, planner_spec
+
+OBS_MODES = ("image", "blind")
+PAPER_CODES = ("C0", "D0", "D1")  # the paper's architectures, as in run_eval.sh
+SHORTCUTS = {
+    "all": [f"{c}_{o}" for c in PAPER_CODES for o in OBS_MODES],
+    "image": [f"{c}_image" for c in PAPER_CODES],
+    "blind": [f"{c}_blind" for c in PAPER_CODES],
+}
+
+
+class PlanError(ValueError):
+    """A run request that cannot be planned (bad condition name, …)."""
+
+
+@dataclass(frozen=True, order=True)
+class Condition:
+    """A planner under an observation mode, e.g. C0_image."""
+
+    planner: str
+    obs_mode: str
+
+    @property
+    def name(self) -> str:
+        return f"{planner_spec(self.planner).code}_{self.obs_mode}"
+
+
+def parse_conditions(text: str) -> list[Condition]:
+    """`all`, `image`, `blind`, or comma-separated names: `C0_image,D1_blind`, or a planner
+    name with a mode: `leader-worker_blind`."""
+    by_code = {spec.code: spec.name for spec in PLANNERS.values()}
+    names: list[str] = []
+    for part in (p.strip() for p in text.split(",") if p.strip()):
+        names.extend(SHORTCUTS.get(part, [part]))
+    out: list[Condition] = []
+    for name in dict.fromkeys(names):
+        head, _, obs = name.rpartition("_")
+        planner = by_code.get(head, head)
+        if planner not in PLANNERS or obs not in OBS_MODES:
+            raise PlanError(f"unknown condition {name!r}: use all, image, blind, or "
+                            f"<{'|'.join(by_code)}>_<image|blind> (planner names work too)")
+        out.append(Condition(planner, obs))
+    if not out:
+        raise PlanError("no conditions given")
+    return out
+
+
+def model_slug(model: str) -> str:
+    """A folder-safe form of a model string."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", model).strip("_") or "model"
+
+
+@dataclass(frozen=True)
+class EpisodeKey:
+    """Identifies one episode of a run."""
+
+    model: str
+    condition: str
+    task_id: str
+    epoch: int = 0
+
+    def folder(self) -> str:
+        """Where its trajectory lives, relative to the run folder."""
+        leaf = self.task_id if self.epoch == 0 else f"{self.task_id}@e{self.epoch}"
+        return f"episodes/{model_slug(self.model)}/{self.condition}/{leaf}"
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"model": self.model, "condition": self.condition, "task_id": self.task_id,
+                "epoch": self.epoch}
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """Episode options shared by the whole run."""
+
+    backend: str = "embedded"
+    prompt_suite: str = "cocobench-v1"
+    max_steps: int | None = None
+    stable_ids: bool = False
+    agent_models: dict[str, str] = field(default_factory=dict)  # heterogeneous teams
+
+
+@dataclass(frozen=True)
+class PlannedEpisode:
+    """One episode to run."""
+
+    key: EpisodeKey
+    spec: EpisodeSpec
+
+
+def plan_episodes(tasks: list[TaskConfig], models: list[str], conditions: list[Condition],
+                  epochs: int, options: RunOptions) -> list[PlannedEpisode]:
+    """Every model × condition × instance × epoch, in that nesting order."""
+    out, seen = [], set()
+    for model in models:
+        for cond in conditions:
+            for config in tasks:
+                for epoch in range(epochs):
+                    key = EpisodeKey(_model_label(model, cond), cond.name, config.task_id, epoch)
+                    if key not in seen:  # the oracle needs no model: plan it once
+                        seen.add(key)
+                        spec = _spec(config, model, cond, epoch, options)
+                        out.append(PlannedEpisode(key, dataclasses.replace(
+                            spec, episode_key=key.folder().removeprefix("episodes/"))))
+    return out
+
+
+def _spec(config: TaskConfig, model: str, cond: Condition, epoch: int, options: RunOptions
+          ) -> EpisodeSpec:
+    models = {DEFAULT_MODEL_KEY: model}
+    if planner_spec(cond.planner).decentralized:
+        models.update(options.agent_models)
+    return EpisodeSpec(config=config, planner=cond.planner, models=models,
+                       obs_mode=cond.obs_mode, prompt_suite=options.prompt_suite,
+                       backend=options.backend, max_steps=options.max_steps,
+                       stable_ids=options.stable_ids, sample_index=epoch)
+
+
+def _model_label(model: str, cond: Condition) -> str:
+    return model if planner_spec(cond.planner).uses_models else "oracle"

@@ -1,0 +1,73 @@
+"""What `run.json` records, and which episodes of a plan are still to run."""
+
+from __future__ import annotations
+
+import datetime as dt
+import platform
+from collections.abc import Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from cocobench_agents import __version__
+from cocobench_agents.harness.plan import PlannedEpisode
+from cocobench_agents.harness.store import RunFolder, is_retryable, result_key
+from cocobench_agents.models import ModelSettings, redact
+from cocobench_agents.prompts import load_prompt_suite
+
+PACKAGES = ("cocobench-agents", "langgraph", "litellm", "pydantic", "pillow", "ai2thor")
+
+
+def run_record(out: str, request: dict[str, Any], settings: ModelSettings,
+               argv: Sequence[str]) -> dict[str, Any]:
+    """Everything needed to reproduce the run (no secrets)."""
+    suite = load_prompt_suite(request["options"].prompt_suite)
+    options = request["options"]
+    return {
+        "name": Path(out).name,
+        "created_at": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+        "cocobench_agents": __version__,
+        "versions": {"python": platform.python_version(), **_package_versions()},
+        "prompt_suite": {"spec": suite.spec, "version": suite.version},
+        "plan": {"sources": request["sources"], "task_ids": request["task_ids"],
+                 "models": request["models"], "agent_models": request["agent_models"],
+                 "conditions": [c.name for c in request["conditions"]],
+                 "epochs": request["epochs"]},
+        "options": {"backend": options.backend, "max_steps": options.max_steps,
+                    "stable_ids": options.stable_ids},
+        "model_settings": settings.to_record(),
+        "request": _replayable_request(request),
+        "command": redact(" ".join(argv)),
+    }
+
+
+def _replayable_request(request: dict[str, Any]) -> dict[str, Any]:
+    """The options a bare `--resume` needs to plan the same episodes again."""
+    options = request["options"]
+    return {"tasks": request["sources"], "suite": None, "models": request["models"],
+            "agent_models": [f"{a}={m}" for a, m in request["agent_models"].items()],
+            "conditions": ",".join(c.name for c in request["conditions"]),
+            "epochs": request["epochs"], "task_id": request["task_ids"], "eval_set": (),
+            "only_cell": None, "only_family": None, "only_dim": None, "limit": 0,
+            "prompt_suite": options.prompt_suite, "backend": options.backend,
+            "max_steps": options.max_steps, "stable_ids": options.stable_ids}
+
+
+def _package_versions() -> dict[str, str]:
+    out = {}
+    for name in PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
+    return out
+
+
+def pending_episodes(episodes: Sequence[PlannedEpisode], folder: RunFolder, *,
+                     retry_errors: bool = False) -> list[PlannedEpisode]:
+    """The planned episodes without a result line (plus retryable ones, when asked)."""
+    done = {}
+    for record in folder.results():
+        done[result_key(record)] = record  # a later line (a retry) supersedes an earlier one
+    return [p for p in episodes
+            if p.key not in done or (retry_errors and is_retryable(done[p.key]))]

@@ -1,0 +1,64 @@
+"""Model clients: the `ModelClient` protocol, the LiteLLM client, offline built-ins, and the
+`ModelPool` that makes them from spec strings. Importing this package does not import LiteLLM
+(that happens on first use)."""
+
+from .builtin import (
+    BUILTIN_MODELS,
+    GREEDY_SKILL_ORDER,
+    GreedyClient,
+    RandomClient,
+    Script,
+    ScriptedClient,
+    greedy_choice,
+    is_builtin,
+    split_spec,
+)
+from .cache import ResponseCache, cache_key
+from .errors import ModelConfigError
+from .grammar import menu_grammar, wants_message
+from .litellm_client import LiteLLMClient, import_litellm
+from .messages import TRUNCATION_MARKER, build_messages, cap_reply, image_data_url, is_truncated
+from .protocol import MenuOption, ModelClient, ModelError, ModelReply, ModelRequest
+from .registry import ModelPool, is_local_url
+from .replay import ReplayClient, ReplaySource, recorded_replies
+from .secrets import REDACTED, redact, redact_obj
+from .settings import TEMPERATURE_AUTO, ModelSettings
+
+__all__ = [
+    "BUILTIN_MODELS",
+    "GREEDY_SKILL_ORDER",
+    "REDACTED",
+    "TEMPERATURE_AUTO",
+    "TRUNCATION_MARKER",
+    "GreedyClient",
+    "LiteLLMClient",
+    "MenuOption",
+    "ModelClient",
+    "ModelConfigError",
+    "ModelError",
+    "ModelPool",
+    "ModelReply",
+    "ModelRequest",
+    "ModelSettings",
+    "RandomClient",
+    "ReplayClient",
+    "ReplaySource",
+    "ResponseCache",
+    "Script",
+    "ScriptedClient",
+    "build_messages",
+    "cache_key",
+    "cap_reply",
+    "greedy_choice",
+    "image_data_url",
+    "import_litellm",
+    "is_builtin",
+    "is_local_url",
+    "is_truncated",
+    "menu_grammar",
+    "recorded_replies",
+    "redact",
+    "redact_obj",
+    "split_spec",
+    "wants_message",
+]

@@ -1,0 +1,194 @@
+"""Offline model clients: `greedy`, `random`, `scripted` and `replay` (baselines, tests, reruns).
+
+Each answers instantly with zero tokens and cost, and has `name` = its spec string. Clients
+keep state (a script position, a random stream), so one is made per episode and agent.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import random
+from collections.abc import Sequence
+from pathlib import Path
+
+from .errors import ModelConfigError
+from .protocol import MenuOption, ModelReply, ModelRequest
+from .replay import ReplayClient, ReplaySource
+
+__all__ = [
+    "BUILTIN_MODELS",
+    "GREEDY_SKILL_ORDER",
+    "GreedyClient",
+    "RandomClient",
+    "ReplayClient",
+    "ReplaySource",
+    "Script",
+    "ScriptedClient",
+    "is_builtin",
+    "split_spec",
+]
+
+#: The built-in model names; `scripted` and `replay` take a path (``scripted:FILE``).
+BUILTIN_MODELS = ("greedy", "random", "scripted", "replay")
+
+#: The reference's greedy preference: the lowest-rank skill on the menu wins.
+GREEDY_SKILL_ORDER = (
+    "PickUp",
+    "Put",
+    "Open",
+    "Close",
+    "Slice",
+    "ToggleOn",
+    "ToggleOff",
+    "CleanObject",
+    "FillObjectWithLiquid",
+    "EmptyLiquidFromObject",
+    "PushObject",
+    "PullObject",
+    "Drop",
+    "Find",
+    "Explore",
+    "Wait",
+)
+_GREEDY_RANK = {skill: rank for rank, skill in enumerate(GREEDY_SKILL_ORDER)}
+
+
+def split_spec(spec: str) -> tuple[str, str | None]:
+    """``"scripted:replies.json"`` → ``("scripted", "replies.json")``; ``"greedy"`` →
+    ``("greedy", None)``."""
+    name, sep, arg = spec.partition(":")
+    return name, (arg if sep else None)
+
+
+def is_builtin(spec: str) -> bool:
+    """Whether `spec` names a built-in client (rather than a LiteLLM model)."""
+    return split_spec(spec)[0] in BUILTIN_MODELS
+
+
+def _reply(text: str) -> ModelReply:
+    return ModelReply(text=text)
+
+
+class GreedyClient:
+    """Picks the menu entry whose skill ranks lowest in `GREEDY_SKILL_ORDER` (the first such
+    entry in menu order; unknown skills rank last); replies ``ACTION: <id>``, or
+    ``ACTION: DONE`` on an empty menu."""
+
+    def __init__(self, name: str = "greedy") -> None:
+        self.name = name
+
+    async def complete(self, request: ModelRequest) -> ModelReply:
+        """Answer with the greedy choice."""
+        choice = greedy_choice(request.menu)
+        return _reply(f"ACTION: {'DONE' if choice is None else choice.action_id}")
+
+
+def greedy_choice(menu: Sequence[MenuOption]) -> MenuOption | None:
+    """The greedy entry of `menu`, or None when it is empty."""
+    if not menu:
+        return None
+    last = len(GREEDY_SKILL_ORDER)
+    return min(menu, key=lambda o: _GREEDY_RANK.get(o.skill, last))  # min keeps the first tie
+
+
+class RandomClient:
+    """A uniform, seeded choice from the menu, never DONE (``ACTION: DONE`` only when the
+    menu is empty). The stream depends on the seed, the episode, the agent and the request's
+    `sample_index`, so every agent of every episode and sample is reproducible on its own."""
+
+    def __init__(
+        self, name: str = "random", *, seed: int = 0, episode: str = "", agent: str | None = None
+    ) -> None:
+        self.name = name
+        self.seed = seed
+        self.episode = episode
+        self.agent = agent
+        self._streams: dict[int, random.Random] = {}
+
+    def _stream(self, sample_index: int) -> random.Random:
+        stream = self._streams.get(sample_index)
+        if stream is None:
+            # sha256, not hash(): str hashes are salted per process.
+            material = f"{self.seed}\x1f{self.episode}\x1f{self.agent}\x1f{sample_index}"
+            digest = hashlib.sha256(material.encode("utf-8")).digest()
+            stream = self._streams[sample_index] = random.Random(int.from_bytes(digest[:8], "big"))
+        return stream
+
+    async def complete(self, request: ModelRequest) -> ModelReply:
+        """Answer with a random menu id."""
+        if not request.menu:
+            return _reply("ACTION: DONE")
+        choice = self._stream(request.sample_index).choice(request.menu)
+        return _reply(f"ACTION: {choice.action_id}")
+
+
+class Script:
+    """Replies read from a file: a JSON list (every agent gets the whole list), a JSON object
+    agent → list (``"centralized"`` for the centralized planner, ``"*"`` for any agent not
+    listed), or a text file of replies separated by lines holding only ``---``."""
+
+    CENTRALIZED = "centralized"
+    ANY = "*"
+
+    def __init__(self, path: str | Path, spec: str | None = None) -> None:
+        self.path = Path(path)
+        spec = spec or f"scripted:{path}"
+        try:
+            text = self.path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ModelConfigError(spec, f"cannot read the script {path}: {exc.strerror}") from None
+        self.replies = self._parse(text, spec)
+
+    def _parse(self, text: str, spec: str) -> dict[str, list[str]]:
+        stripped = text.strip()
+        looks_json = self.path.suffix.lower() == ".json" or stripped[:1] in ("[", "{")
+        if looks_json:
+            try:
+                data = json.loads(stripped)
+            except ValueError as exc:
+                if self.path.suffix.lower() == ".json":
+                    raise ModelConfigError(spec, f"{self.path} is not valid JSON: {exc}") from None
+            else:
+                return self._from_json(data, spec)
+        chunks: list[list[str]] = [[]]
+        for line in text.splitlines():
+            if line.strip() == "---":
+                chunks.append([])
+            else:
+                chunks[-1].append(line)
+        replies = ["\n".join(c).strip() for c in chunks]
+        return {self.ANY: [r for r in replies if r]}
+
+    def _from_json(self, data: object, spec: str) -> dict[str, list[str]]:
+        def replies_of(value: object, where: str) -> list[str]:
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise ModelConfigError(spec, f"{where} in {self.path} must be a list of strings")
+            return list(value)
+
+        if isinstance(data, list):
+            return {self.ANY: replies_of(data, "the script")}
+        if isinstance(data, dict):
+            return {str(k): replies_of(v, f"the entry {k!r}") for k, v in data.items()}
+        raise ModelConfigError(spec, f"{self.path} must hold a list or an object of lists")
+
+    def for_agent(self, agent: str | None) -> list[str]:
+        """The replies one agent's client uses, in order."""
+        key = self.CENTRALIZED if agent is None else agent
+        return list(self.replies.get(key, self.replies.get(self.ANY, [])))
+
+
+class ScriptedClient:
+    """Replies from a `Script`, in order; ``ACTION: DONE`` once they run out."""
+
+    def __init__(self, name: str, replies: Sequence[str]) -> None:
+        self.name = name
+        self._replies = list(replies)
+        self._next = 0
+
+    async def complete(self, request: ModelRequest) -> ModelReply:
+        """The next scripted reply."""
+        if self._next >= len(self._replies):
+            return _reply("ACTION: DONE")
+        self._next += 1
+        return _reply(self._replies[self._next - 1])

@@ -1,0 +1,165 @@
+"""`ModelPool`: model spec strings → clients, and the checks run before any episode starts."""
+
+from __future__ import annotations
+
+import ipaddress
+import os
+from pathlib import Path
+from urllib.parse import urlsplit
+
+from .builtin import (
+    BUILTIN_MODELS,
+    GreedyClient,
+    RandomClient,
+    ReplayClient,
+    ReplaySource,
+    Script,
+    ScriptedClient,
+    split_spec,
+)
+from .cache import ResponseCache
+from .errors import ModelConfigError
+from .litellm_client import LiteLLMClient, import_litellm
+from .protocol import ModelClient
+from .settings import ModelSettings
+
+_BUILTIN_USAGE = "built-ins: greedy, random, random:SEED, scripted:FILE, replay:PATH"
+
+
+def is_local_url(url: str | None) -> bool:
+    """Whether `url` points at this machine (a local server needs no provider key)."""
+    if not url:
+        return False
+    host = urlsplit(url if "//" in url else f"//{url}").hostname or ""
+    if host == "localhost":
+        return True
+    try:
+        address = ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return address.is_loopback or address.is_unspecified
+
+
+class ModelPool:
+    """Makes the clients of a run from spec strings.
+
+    LiteLLM clients are shared per model string (one concurrency limit and one cache per
+    model); built-in clients are made once per (spec, episode, agent), since they keep state.
+    Files named by ``scripted:``/``replay:`` specs are read once per pool.
+    """
+
+    def __init__(self, settings: ModelSettings | None = None) -> None:
+        self.settings = settings if settings is not None else ModelSettings()
+        self.cache = (
+            ResponseCache(self.settings.cache_dir) if self.settings.cache_dir is not None else None
+        )
+        self._remote: dict[str, LiteLLMClient] = {}
+        self._builtin: dict[tuple[str, str, str | None], ModelClient] = {}
+        self._scripts: dict[str, Script] = {}
+        self._replays: dict[str, ReplaySource] = {}
+
+    def client(self, spec: str, *, episode: str, agent: str | None) -> ModelClient:
+        """The client answering for `agent` (None = centralized) in `episode`."""
+        name, arg = split_spec(spec)
+        if name not in BUILTIN_MODELS:
+            remote = self._remote.get(spec)
+            if remote is None:
+                remote = self._remote[spec] = LiteLLMClient(spec, self.settings, cache=self.cache)
+            return remote
+        key = (spec, episode, agent)
+        client = self._builtin.get(key)
+        if client is None:
+            client = self._builtin[key] = self._make_builtin(spec, name, arg, episode, agent)
+        return client
+
+    def release(self, episode: str) -> None:
+        """Forget the built-in clients of a finished episode."""
+        for key in [k for k in self._builtin if k[1] == episode]:
+            del self._builtin[key]
+
+    def validate(self, spec: str) -> None:
+        """Raise `ModelConfigError` (one line: the model and what to set or fix) unless
+        `spec` can be used: built-in files readable, LiteLLM model known, API key present."""
+        name, arg = split_spec(spec)
+        if name in BUILTIN_MODELS:
+            self._builtin_source(spec, name, arg)
+        else:
+            self._validate_remote(spec)
+
+    # -- built-ins --------------------------------------------------------------------------
+
+    def _builtin_source(self, spec: str, name: str, arg: str | None) -> Script | ReplaySource | int:
+        if name == "greedy":
+            if arg is not None:
+                raise ModelConfigError(spec, f"greedy takes no argument ({_BUILTIN_USAGE})")
+            return 0
+        if name == "random":
+            if arg is None:
+                return self.settings.seed if self.settings.seed is not None else 0
+            try:
+                return int(arg)
+            except ValueError:
+                raise ModelConfigError(spec, "the seed must be an integer: random:SEED") from None
+        if not arg:
+            raise ModelConfigError(spec, f"{name} needs a path: {name}:PATH ({_BUILTIN_USAGE})")
+        if name == "scripted":
+            script = self._scripts.get(arg)
+            if script is None:
+                script = self._scripts[arg] = Script(Path(arg), spec)
+            return script
+        source = self._replays.get(arg)
+        if source is None:
+            source = ReplaySource(Path(arg), spec)
+            source.check()
+            self._replays[arg] = source
+        return source
+
+    def _make_builtin(
+        self, spec: str, name: str, arg: str | None, episode: str, agent: str | None
+    ) -> ModelClient:
+        source = self._builtin_source(spec, name, arg)
+        if name == "greedy":
+            return GreedyClient(spec)
+        if name == "random":
+            assert isinstance(source, int)
+            return RandomClient(spec, seed=source, episode=episode, agent=agent)
+        if name == "scripted":
+            assert isinstance(source, Script)
+            return ScriptedClient(spec, source.for_agent(agent))
+        assert isinstance(source, ReplaySource)
+        return ReplayClient(spec, source, episode=episode, agent=agent)
+
+    # -- LiteLLM models ---------------------------------------------------------------------
+
+    def _validate_remote(self, spec: str) -> None:
+        s = self.settings
+        litellm = import_litellm()
+        try:
+            litellm.get_llm_provider(model=spec, api_base=s.api_base)
+        except Exception:  # noqa: BLE001 - LiteLLM raises several types for an unknown model
+            raise ModelConfigError(
+                spec,
+                "unknown model: LiteLLM cannot tell its provider; write provider/model "
+                "(e.g. openai/gpt-4o, anthropic/claude-sonnet-4-5, openai/NAME with an "
+                f"api_base for an OpenAI-compatible server) or use a {_BUILTIN_USAGE}",
+            ) from None
+        if s.api_key_env:
+            if not os.environ.get(s.api_key_env):
+                raise ModelConfigError(
+                    spec, f"no API key: the variable {s.api_key_env} (api_key_env) is not set"
+                )
+            return
+        if is_local_url(s.api_base):
+            return  # local servers (llama.cpp, vLLM, Ollama) rarely check keys
+        try:
+            missing = litellm.validate_environment(model=spec, api_base=s.api_base).get(
+                "missing_keys"
+            )
+        except Exception:  # noqa: BLE001 - a provider LiteLLM cannot check is not our error
+            return
+        if missing:
+            raise ModelConfigError(
+                spec,
+                f"no API key: set {' and '.join(missing)} in the environment "
+                "(or name the variable holding the key with api_key_env)",
+            )

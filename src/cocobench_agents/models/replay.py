@@ -1,0 +1,142 @@
+"""The `replay` built-in: answer with the replies recorded in an earlier run's trajectories."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+from .errors import ModelConfigError
+from .protocol import ModelError, ModelReply, ModelRequest
+
+TRAJECTORY_FILE = "trajectory.json"
+
+
+def recorded_replies(data: dict) -> dict[str | None, list[str]]:
+    """agent (None for a centralized planner) → its recorded raw outputs, in order.
+
+    Read from the top-level ``planner_decisions`` list when present, else from the
+    ``policy_decision`` of the ``trajectory`` items (the reference's format). Decisions with no
+    raw output (the model was not asked, or failed) are skipped.
+    """
+    decisions = data.get("planner_decisions")
+    if not isinstance(decisions, list) or not decisions:
+        items = data.get("trajectory")
+        decisions = [
+            item["policy_decision"]
+            for item in (items if isinstance(items, list) else [])
+            if isinstance(item, dict) and isinstance(item.get("policy_decision"), dict)
+        ]
+    replies: dict[str | None, list[str]] = {}
+    for decision in decisions:
+        if not isinstance(decision, dict):
+            continue
+        raw = decision.get("raw_output")
+        if isinstance(raw, str):
+            agent = decision.get("agent")
+            replies.setdefault(None if agent is None else str(agent), []).append(raw)
+    return replies
+
+
+def _episode_parts(episode: str) -> list[str]:
+    return [p for p in episode.replace("\\", "/").split("/") if p]
+
+
+class ReplaySource:
+    """A ``replay:PATH`` source: one ``trajectory.json`` file, or a folder searched
+    recursively for them. The folder is indexed once (task id → files)."""
+
+    def __init__(self, path: str | Path, spec: str | None = None) -> None:
+        self.path = Path(path)
+        self.spec = spec or f"replay:{path}"
+        self._index: dict[str, list[Path]] | None = None
+
+    def check(self) -> None:
+        """Raise `ModelConfigError` unless the source exists and holds at least one
+        readable trajectory."""
+        if not self.path.exists():
+            raise ModelConfigError(self.spec, f"{self.path} does not exist")
+        if self.path.is_file():
+            self._load(self.path, config_error=True)
+        elif not self.index():
+            raise ModelConfigError(self.spec, f"no readable {TRAJECTORY_FILE} under {self.path}")
+
+    def index(self) -> dict[str, list[Path]]:
+        """task id → trajectory files, built on first use."""
+        if self._index is None:
+            index: dict[str, list[Path]] = {}
+            files = [self.path] if self.path.is_file() else sorted(self.path.rglob(TRAJECTORY_FILE))
+            for file in files:
+                try:
+                    task_id = self._load(file).get("task_id")
+                except ModelError:
+                    continue  # a broken file in a big folder must not hide the others
+                if isinstance(task_id, str):
+                    index.setdefault(task_id, []).append(file)
+            self._index = index
+        return self._index
+
+    def _load(self, file: Path, *, config_error: bool = False) -> dict:
+        try:
+            data = json.loads(file.read_text(encoding="utf-8"))
+            if not isinstance(data, dict):
+                raise ValueError("not a JSON object")
+        except (OSError, ValueError) as exc:
+            message = f"cannot read {file}: {exc}"
+            if config_error:
+                raise ModelConfigError(self.spec, message) from None
+            raise ModelError("other", f"{self.spec}: {message}") from None
+        return data
+
+    def find(self, episode: str) -> Path:
+        """The trajectory recorded for `episode` (a task id, or a key whose path components
+        include the task id, such as ``condition/task_id``); `ModelError` if none or several."""
+        parts = _episode_parts(episode)
+        index = self.index()
+        matches = [f for task_id, files in index.items() if task_id in parts for f in files]
+        if len(matches) > 1:
+            # Several runs of one task (conditions, epochs): the folder path must say which.
+            tail = "/".join(parts)
+            narrowed = [f for f in matches if f.parent.as_posix().endswith(tail)]
+            matches = narrowed or matches
+        if not matches:
+            raise ModelError("other", f"{self.spec}: no recorded trajectory for {episode!r}")
+        if len(matches) > 1:
+            raise ModelError(
+                "other",
+                f"{self.spec}: {len(matches)} recorded trajectories match {episode!r}; "
+                "point replay at a narrower folder",
+            )
+        return matches[0]
+
+    def replies(self, episode: str) -> dict[str | None, list[str]]:
+        """agent → recorded replies of `episode`."""
+        return recorded_replies(self._load(self.find(episode)))
+
+
+class ReplayClient:
+    """Answers one agent of one episode with its recorded replies, in order; raises
+    `ModelError` (kind ``other``) when none is left or no trajectory matches the episode."""
+
+    def __init__(self, name: str, source: ReplaySource, *, episode: str, agent: str | None):
+        self.name = name
+        self.source = source
+        self.episode = episode
+        self.agent = agent
+        self._replies: Sequence[str] | None = None
+        self._next = 0
+
+    async def complete(self, request: ModelRequest) -> ModelReply:
+        """The next recorded reply."""
+        if self._replies is None:
+            self._replies = self.source.replies(self.episode).get(self.agent, [])
+        if self._next >= len(self._replies):
+            who = "the centralized planner" if self.agent is None else self.agent
+            raise ModelError(
+                "other",
+                f"{self.name}: replay exhausted: {len(self._replies)} recorded replies "
+                f"for {who} in {self.episode!r}",
+                extra={"replayed": len(self._replies)},
+            )
+        self._next += 1
+        return ModelReply(text=self._replies[self._next - 1])
