@@ -12,59 +12,55 @@ from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.skills.native import find_object
 
 # Raw state-changing actions that the reference forces unless the config says otherwise.
-FORCED_BY_DEFAULT = frozenset(
-    {"DirtyObject", "CleanObject", "FillObjectWithLiquid", "EmptyLiquidFromObject"}
-)
+FORCED_BY_DEFAULT = frozenset({"DirtyObject", "CleanObject", "FillObjectWithLiquid",
+                               "EmptyLiquidFromObject"})
 
 
-def apply_init_actions(
-    controller: Controller, actions: list[dict[str, Any]]
-) -> list[dict[str, Any]]:
+def apply_init_actions(controller: Controller, actions: list[dict[str, Any]]
+                       ) -> list[dict[str, Any]]:
     """Run every init action; return the trace `[{action, lastActionSuccess, errorMessage}]`."""
     return [_apply(controller, dict(action)) for action in actions]
 
 
 def _apply(controller: Controller, action: dict[str, Any]) -> dict[str, Any]:
-    kind = action.get("action")
+    kind, object_id = action.get("action"), action.get("objectId")
     if kind == "assert_present":
-        present = _object(controller, action.get("objectId")) is not None
-        return _trace(action, present, "" if present else f"{action.get('objectId')} not present")
+        present = _object(controller, object_id) is not None
+        return _trace(action, present, "" if present else f"object not present: {object_id}")
     if kind == "ensure_toggle_state":
-        return _ensure_toggle(controller, action)
+        obj, want = _object(controller, object_id), bool(action.get("isToggled"))
+        if obj is None or bool(obj.get("isToggled")) == want:  # the reference's rule
+            return _trace(action, True, "already satisfied")
+        native = "ToggleObjectOn" if want else "ToggleObjectOff"
+        return native_step(controller, {"action": native, "objectId": object_id,
+                                        "forceAction": True}, agent_id=0)
     if kind == "ensure_empty":
-        return _ensure_empty(controller, action)
-    if not isinstance(kind, str):
-        return _trace(action, False, "init action without an 'action' name")
-    kwargs = {k: v for k, v in action.items() if k != "action"}
+        obj = _object(controller, object_id)
+        if obj is None or not obj.get("isFilledWithLiquid"):
+            return _trace(action, True, "already empty")
+        return native_step(controller, {"action": "EmptyLiquidFromObject",
+                                        "objectId": object_id}, agent_id=0)
     if kind in FORCED_BY_DEFAULT:
-        kwargs.setdefault("forceAction", True)
-    agent = kwargs.pop("agentId", None)
-    own = controller.step(kind, agentId=agent, **kwargs)[agent or 0]
-    return _trace(action, bool(own["lastActionSuccess"]), own["errorMessage"] or "")
+        action.setdefault("forceAction", True)
+    return native_step(controller, action, agent_id=None)
 
 
-def _ensure_toggle(controller: Controller, action: dict[str, Any]) -> dict[str, Any]:
-    obj = _object(controller, action.get("objectId"))
-    if obj is None:
-        return _trace(action, False, f"{action.get('objectId')} not present")
-    want = bool(action.get("isToggled"))
-    if bool(obj.get("isToggled")) == want:
-        return _trace(action, True, "already satisfied")
-    native = "ToggleObjectOn" if want else "ToggleObjectOff"
-    own = controller.step(native, agentId=0, objectId=obj["objectId"], forceAction=True)[0]
-    return _trace(action, bool(own["lastActionSuccess"]), own["errorMessage"] or "")
+def native_step(controller: Controller, action: dict[str, Any], agent_id: int | None
+                ) -> dict[str, Any]:
+    """Run one native action (the config's own `agentId`, if any, is kept); trace it.
 
-
-def _ensure_empty(controller: Controller, action: dict[str, Any]) -> dict[str, Any]:
-    obj = _object(controller, action.get("objectId"))
-    if obj is None:
-        return _trace(action, False, f"{action.get('objectId')} not present")
-    if not obj.get("isFilledWithLiquid"):
-        return _trace(action, True, "already satisfied")
-    own = controller.step(
-        "EmptyLiquidFromObject", agentId=0, objectId=obj["objectId"], forceAction=True
-    )[0]
-    return _trace(action, bool(own["lastActionSuccess"]), own["errorMessage"] or "")
+    As in the reference, success is read from agent 0's metadata, and an exception becomes a
+    failed trace entry.
+    """
+    native = dict(action) if agent_id is None else {**action, "agentId": agent_id}
+    kwargs = {k: v for k, v in native.items() if k not in ("action", "agentId")}
+    try:
+        if not isinstance(native.get("action"), str):
+            raise ValueError("init action without an 'action' name")
+        own = controller.step(native["action"], agentId=native.get("agentId"), **kwargs)[0]
+    except Exception as exc:  # noqa: BLE001 - init failures never abort an episode
+        return _trace(native, False, repr(exc))
+    return _trace(native, bool(own["lastActionSuccess"]), own["errorMessage"] or "")
 
 
 def _object(controller: Controller, object_id: Any) -> Mapping[str, Any] | None:

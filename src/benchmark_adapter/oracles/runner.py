@@ -5,7 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 from benchmark_adapter.episode import Episode
-from benchmark_adapter.oracles.plans import ORACLE_PLANS, Plan
+from benchmark_adapter.oracles.plans import Plan
+from benchmark_adapter.oracles.registry import plan_function, plan_name, registered_plans
 from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks.config import TaskConfig
 
@@ -17,12 +18,14 @@ class NoOraclePlan(LookupError):
 
 
 def oracle_plan(config: TaskConfig) -> Plan:
-    """The reference plan for the config's cell."""
-    plan = ORACLE_PLANS.get(config.cell)
+    """The reference plan for the config: the one `provenance.oracle` names, else its cell's."""
+    plan = plan_function(config)
     if plan is None:
+        name = plan_name(config)
+        what = f"cell {name}" if name == config.cell else f"{name!r} (provenance.oracle)"
         raise NoOraclePlan(
-            f"{config.task_id}: no oracle plan for cell {config.cell} "
-            f"(known: {', '.join(sorted(ORACLE_PLANS))})"
+            f"{config.task_id}: no oracle plan for {what} "
+            f"(known: {', '.join(sorted(registered_plans()))})"
         )
     return plan(config)
 

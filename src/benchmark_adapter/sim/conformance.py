@@ -102,15 +102,16 @@ def _check_navigation(ctl: Controller) -> Sequence[Metadata]:
     md = ctl.step("GetInteractablePoses", agentId=0, objectId=target)
     poses = md[0]["actionReturn"]
     _expect(isinstance(poses, list) and poses, f"GetInteractablePoses({target}) gave no poses")
+    reached = False
     for pose in poses:
         md = ctl.step("TeleportFull", agentId=0, **pose)
         if md[0]["lastActionSuccess"]:
             seen = [o for o in md[0]["objects"] if o["objectId"] == target]
-            _expect(
-                seen and seen[0]["visible"],
-                f"{target} is not visible from its own interactable pose",
-            )
+            _expect(seen and seen[0]["visible"],
+                    f"{target} is not visible from its own interactable pose")
+            reached = True
             break
+    _expect(reached, f"no interactable pose of {target} could be reached with TeleportFull")
     md = ctl.step(
         "TeleportFull", agentId=0, x=1e6, y=0.9, z=1e6, rotation=0, horizon=0, standing=True
     )

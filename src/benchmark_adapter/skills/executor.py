@@ -159,8 +159,6 @@ def result_args(call: SkillCall) -> dict[str, str | None]:
         return {"direction": call.args[0] if call.args else ""}
     if call.skill == "Put":  # the held object is filled in once known
         return {"receptacleId": call.args[0] if call.args else ""}
-    if call.skill == "FillObjectWithLiquid" and len(call.args) > 1:
-        return {"objectId": call.args[0], "liquid": call.args[1]}
     return {"objectId": call.args[0]} if call.args else {}
 
 

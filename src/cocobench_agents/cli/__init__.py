@@ -7,15 +7,15 @@ import sys
 import click
 
 from benchmark_adapter.tasks import TaskConfigError
-from cocobench_agents.graphs import UnknownPlanner
-from cocobench_agents.harness import PlanError, RunFolderError
-from cocobench_agents.models import ModelConfigError
-from cocobench_agents.prompts import PromptSuiteError
 from cocobench_agents import __version__
 from cocobench_agents.cli.list_cmd import list_command
 from cocobench_agents.cli.run_cmd import run_command
 from cocobench_agents.cli.score_cmd import score_command
 from cocobench_agents.cli.validate_cmd import validate_command
+from cocobench_agents.graphs import UnknownPlanner
+from cocobench_agents.harness import PlanError, RunFolderError
+from cocobench_agents.models import ModelConfigError
+from cocobench_agents.prompts import PromptSuiteError
 
 USAGE_ERROR = 2
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback.

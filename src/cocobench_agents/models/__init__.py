@@ -19,14 +19,15 @@ from .grammar import menu_grammar, wants_message
 from .litellm_client import LiteLLMClient, import_litellm
 from .messages import TRUNCATION_MARKER, build_messages, cap_reply, image_data_url, is_truncated
 from .protocol import MenuOption, ModelClient, ModelError, ModelReply, ModelRequest
-from .registry import ModelPool, is_local_url
+from .registry import ModelPool
 from .replay import ReplayClient, ReplaySource, recorded_replies
 from .secrets import REDACTED, redact, redact_obj
-from .settings import TEMPERATURE_AUTO, ModelSettings
+from .settings import LOCAL_PLACEHOLDER_KEY, TEMPERATURE_AUTO, ModelSettings, is_local_url
 
 __all__ = [
     "BUILTIN_MODELS",
     "GREEDY_SKILL_ORDER",
+    "LOCAL_PLACEHOLDER_KEY",
     "REDACTED",
     "TEMPERATURE_AUTO",
     "TRUNCATION_MARKER",

@@ -11,6 +11,6 @@ class ModelConfigError(ValueError):
     model and what to do about it."""
 
     def __init__(self, model: str, message: str) -> None:
-        self.model = model
+        self.model = redact(model)
         self.message = redact(message)
-        super().__init__(f"{model}: {self.message}")
+        super().__init__(f"{self.model}: {self.message}")

@@ -167,7 +167,7 @@ class LiteLLMClient:
         }
         if s.api_base:
             kwargs["api_base"] = s.api_base
-        api_key = s.api_key()
+        api_key = s.call_key()
         if api_key:
             kwargs["api_key"] = api_key
         # A backstop in case a provider ignores `timeout` (a hung stream must not hang a run).
@@ -185,12 +185,11 @@ class LiteLLMClient:
             wait = max(wait, min(hint, s.backoff_max_s))
         return wait
 
-    @staticmethod
-    def _account(litellm: ModuleType, response: Any, spent: dict[str, Any]) -> None:
+    def _account(self, litellm: ModuleType, response: Any, spent: dict[str, Any]) -> None:
         usage = getattr(response, "usage", None)
         spent["prompt_tokens"] += int(getattr(usage, "prompt_tokens", 0) or 0)
         spent["completion_tokens"] += int(getattr(usage, "completion_tokens", 0) or 0)
-        spent["cost_usd"] += _cost(litellm, response)
+        spent["cost_usd"] += _cost(litellm, response, self.model)
 
     def _error(
         self,
@@ -229,9 +228,17 @@ def _reply_text(response: Any) -> str:
     return content if isinstance(content, str) else ""
 
 
-def _cost(litellm: ModuleType, response: Any) -> float:
+def _cost(litellm: ModuleType, response: Any, model: str) -> float:
     """The call's cost from LiteLLM's local cost map; 0 for models it has no price for."""
-    try:
-        return float(litellm.completion_cost(completion_response=response) or 0.0)
-    except Exception:  # noqa: BLE001 - unknown models raise; cost must never fail a call
-        return 0.0
+    # LiteLLM prices the call as it returns it (by the model asked for); compute it only when
+    # it did not, first by the model the provider reports, then by the one asked for.
+    hidden = getattr(response, "_hidden_params", None) or {}
+    cost = hidden.get("response_cost") if isinstance(hidden, dict) else None
+    if isinstance(cost, (int, float)) and cost >= 0:
+        return float(cost)
+    for kwargs in ({}, {"model": model}):
+        try:
+            return float(litellm.completion_cost(completion_response=response, **kwargs) or 0.0)
+        except Exception:  # noqa: BLE001 - unknown models raise; cost never fails a call
+            continue
+    return 0.0

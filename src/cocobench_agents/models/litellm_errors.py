@@ -25,6 +25,8 @@ def classify(litellm: ModuleType, exc: BaseException) -> tuple[str, bool]:
         return "context_window", False
     if isinstance(exc, litellm.ContentPolicyViolationError):
         return "bad_request", False
+    if _missing_credentials(exc):
+        return "auth", False
     if isinstance(exc, (litellm.Timeout, asyncio.TimeoutError, TimeoutError)):
         return "timeout", True
     if isinstance(exc, litellm.RateLimitError):
@@ -66,6 +68,13 @@ def classify(litellm: ModuleType, exc: BaseException) -> tuple[str, bool]:
     if 400 <= status < 500:
         return "bad_request", False
     return "other", False
+
+
+def _missing_credentials(exc: BaseException) -> bool:
+    # The OpenAI SDK refuses to send a request without a key; LiteLLM reports that as an
+    # InternalServerError, which must not be retried.
+    text = str(exc)
+    return "Missing credentials" in text or "api_key client option must be set" in text
 
 
 def status_code(exc: BaseException) -> int | None:

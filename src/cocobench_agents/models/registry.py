@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import ipaddress
 import os
 from pathlib import Path
-from urllib.parse import urlsplit
 
 from .builtin import (
     BUILTIN_MODELS,
@@ -21,23 +19,9 @@ from .cache import ResponseCache
 from .errors import ModelConfigError
 from .litellm_client import LiteLLMClient, import_litellm
 from .protocol import ModelClient
-from .settings import ModelSettings
+from .settings import ModelSettings, is_local_url
 
 _BUILTIN_USAGE = "built-ins: greedy, random, random:SEED, scripted:FILE, replay:PATH"
-
-
-def is_local_url(url: str | None) -> bool:
-    """Whether `url` points at this machine (a local server needs no provider key)."""
-    if not url:
-        return False
-    host = urlsplit(url if "//" in url else f"//{url}").hostname or ""
-    if host == "localhost":
-        return True
-    try:
-        address = ipaddress.ip_address(host)
-    except ValueError:
-        return False
-    return address.is_loopback or address.is_unspecified
 
 
 class ModelPool:

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import ipaddress
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 from .secrets import redact_obj
 
@@ -13,6 +15,23 @@ from .secrets import redact_obj
 #: gpt/o1/o3/o4, not sent otherwise.
 TEMPERATURE_AUTO = "auto"
 _REFERENCE_T0_PREFIXES = ("gpt", "o1", "o3", "o4")
+#: The key sent to a local server when no `api_key_env` is given (OpenAI-style clients
+#: refuse to send a request without one; local servers rarely check it).
+LOCAL_PLACEHOLDER_KEY = "no-key-required"
+
+
+def is_local_url(url: str | None) -> bool:
+    """Whether `url` points at this machine (loopback or unspecified address, localhost)."""
+    if not url:
+        return False
+    host = urlsplit(url if "//" in url else f"//{url}").hostname or ""
+    if host == "localhost":
+        return True
+    try:
+        address = ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return address.is_loopback or address.is_unspecified
 
 
 @dataclass(frozen=True)
@@ -91,6 +110,14 @@ class ModelSettings:
         if not self.api_key_env:
             return None
         return os.environ.get(self.api_key_env) or None
+
+    def call_key(self) -> str | None:
+        """The key to send: `api_key()`; for a local `api_base` without `api_key_env`, a
+        placeholder (so a provider key in the environment never goes to a local server);
+        None otherwise (LiteLLM then reads the provider's variable)."""
+        if self.api_key_env:
+            return self.api_key()
+        return LOCAL_PLACEHOLDER_KEY if is_local_url(self.api_base) else None
 
     def temperature_for(self, model: str) -> float | None:
         """The temperature to send for `model`, or None to send none."""

@@ -1,0 +1,78 @@
+"""The simulator backends by name: `make_controller(config, backend, **options)`.
+
+`embedded` (default) is the in-process symbolic world; `ai2thor` is real AI2-THOR 5.0 (needs
+the `thor` extra and a GPU or an X display). Both speak the `Controller` protocol.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from benchmark_adapter.sim.protocol import Controller
+from benchmark_adapter.tasks.config import TaskConfig
+
+DEFAULT_BACKEND = "embedded"
+
+
+def _embedded(config: TaskConfig, **options: Any) -> Controller:
+    _no_options("embedded", options)
+    from benchmark_adapter.sim.embedded import EmbeddedController
+
+    return EmbeddedController(config)
+
+
+def _ai2thor(config: TaskConfig, **options: Any) -> Controller:
+    from benchmark_adapter.sim.thor import ThorController, ThorOptions
+
+    return ThorController(config, ThorOptions.from_env(**options))
+
+
+BACKENDS: dict[str, Callable[..., Controller]] = {
+    "embedded": _embedded,
+    "ai2thor": _ai2thor,
+}
+"""Backend name → `factory(config, **options)`."""
+
+
+def make_controller(
+    config: TaskConfig, backend: str = DEFAULT_BACKEND, **options: Any
+) -> Controller:
+    """A controller for `config` on the named backend.
+
+    `ai2thor` options are `ThorOptions` fields (platform, width, height, quality, gpu_device,
+    x_display, local_executable_path, …); unset ones come from `COCOBENCH_THOR_*` variables.
+    """
+    return _factory_for(backend)(config, **options)
+
+
+def controller_factory(
+    backend: str = DEFAULT_BACKEND, **options: Any
+) -> Callable[[TaskConfig], Controller]:
+    """A picklable `config → controller` for worker processes; checks name and options now,
+    so a typo fails before the first episode rather than in every worker."""
+    _factory_for(backend)
+    if backend == "ai2thor":
+        from benchmark_adapter.sim.thor import ThorOptions
+
+        ThorOptions.from_env(**options)
+    else:
+        _no_options(backend, options)
+    return functools.partial(make_controller, backend=backend, **options)
+
+
+def _factory_for(backend: str) -> Callable[..., Controller]:
+    try:
+        return BACKENDS[backend]
+    except KeyError:
+        raise ValueError(
+            f"unknown backend {backend!r}; choose one of: {', '.join(sorted(BACKENDS))}"
+        ) from None
+
+
+def _no_options(backend: str, options: Mapping[str, Any]) -> None:
+    if options:
+        raise ValueError(
+            f"the {backend} backend takes no options (got: {', '.join(sorted(options))})"
+        )

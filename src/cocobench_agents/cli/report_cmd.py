@@ -1,0 +1,48 @@
+"""`cocobench report`: the paper's tables and plots from one or several run folders."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+
+@click.command("report")
+@click.argument("runs", nargs=-1, required=True, metavar="RUN [RUN...]")
+@click.option("--out", "out", type=click.Path(file_okay=False), default=None,
+              help="Report folder (default: RUN/report of the first run).")
+@click.option("--resamples", type=click.IntRange(min=1), default=2000, show_default=True,
+              help="Bootstrap resamples per confidence interval.")
+@click.option("--seed", type=int, default=None,
+              help="Bootstrap seed (default: a fixed seed, so reports are reproducible).")
+@click.option("--no-plots", is_flag=True, help="Write the tables only.")
+def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed: int | None,
+                   no_plots: bool) -> None:
+    """Write Markdown and CSV tables, PNG plots and an index.md for RUN folders.
+
+    Several runs are reported side by side; a model found in several runs is merged, the
+    later run winning on an episode present in both. Runs still in progress or interrupted
+    are reported from their complete result lines.
+    """
+    # Imported here: numpy and the report code load only when a report is made.
+    from cocobench_agents.report import Bootstrap, NotARunFolder, build_report
+    from cocobench_agents.report.load import check_run_folder
+    from cocobench_agents.report.stats import DEFAULT_SEED
+
+    try:
+        for run in runs:
+            check_run_folder(run)
+    except NotARunFolder as exc:
+        raise click.BadParameter(str(exc), param_hint="RUN") from None
+    target = Path(out) if out else Path(runs[0]) / "report"
+    boot = Bootstrap(resamples=resamples, seed=DEFAULT_SEED if seed is None else seed)
+    try:
+        summary = build_report(list(runs), target, boot=boot, plots=not no_plots)
+    except NotARunFolder as exc:
+        raise click.BadParameter(str(exc), param_hint="RUN") from None
+    for path in summary.files:
+        click.echo(str(path))
+    click.echo(f"{summary.episodes} episodes, {len(summary.models)} model(s), "
+               f"{len(summary.conditions)} condition(s) -> {target / 'index.md'}", err=True)
+    if summary.plot_note and not summary.plots:
+        click.echo(f"note: {summary.plot_note}", err=True)

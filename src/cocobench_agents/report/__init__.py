@@ -1,0 +1,14 @@
+"""The paper's tables and plots from run folders, with bootstrap confidence intervals.
+
+`build_report(["runs/a", "runs/b"], "out")` reads the runs (merged, later runs winning on
+duplicate episodes) and writes Markdown and CSV tables, PNG plots (with matplotlib) and an
+`index.md`. See docs/reports.md.
+"""
+
+from cocobench_agents.report.build import ReportSummary, build_report, compute_tables
+from cocobench_agents.report.load import NotARunFolder, ReportData, load_runs
+from cocobench_agents.report.stats import Bootstrap, Estimate
+from cocobench_agents.report.table import Column, Table
+
+__all__ = ["Bootstrap", "Column", "Estimate", "NotARunFolder", "ReportData", "ReportSummary",
+           "Table", "build_report", "compute_tables", "load_runs"]

@@ -1,0 +1,97 @@
+"""`build_report`: run folders in, Markdown/CSV tables, PNG plots and `index.md` out."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from cocobench_agents.report import diagnostics, tables
+from cocobench_agents.report.load import ReportData, load_runs
+from cocobench_agents.report.render import PlotEntry, index_markdown, to_csv, to_markdown
+from cocobench_agents.report.stats import Bootstrap
+from cocobench_agents.report.table import Table
+
+#: Every table of the report, in the order of the index.
+TABLES: tuple[Callable[[tables.Ctx], Table], ...] = (
+    tables.main_results,
+    tables.architecture,
+    tables.observation,
+    tables.team_size,
+    diagnostics.failure_diagnostics,
+    diagnostics.terminal_states,
+    diagnostics.legality,
+    diagnostics.cost,
+    diagnostics.construct_correlation,
+)
+PRIMARY_CONDITION = "C0_image"  # the paper's main protocol
+
+
+@dataclass
+class ReportSummary:
+    """What `build_report` wrote."""
+
+    out: Path
+    files: list[Path]
+    tables: list[Table]
+    plots: list[PlotEntry] = field(default_factory=list)
+    plot_note: str | None = None  # why plots are missing, when they are
+    episodes: int = 0
+    models: list[str] = field(default_factory=list)
+    conditions: list[str] = field(default_factory=list)
+    plot_condition: str | None = None
+
+
+def compute_tables(data: ReportData, boot: Bootstrap | None = None) -> list[Table]:
+    """Every report table for already loaded runs."""
+    ctx = tables.Ctx(data, boot or Bootstrap())
+    return [make(ctx) for make in TABLES]
+
+
+def plot_condition(data: ReportData) -> str | None:
+    """The condition per-condition figures show: C0_image, else the first one."""
+    if PRIMARY_CONDITION in data.conditions:
+        return PRIMARY_CONDITION
+    return data.conditions[0] if data.conditions else None
+
+
+def build_report(runs: Sequence[str | Path], out: str | Path, *,
+                 boot: Bootstrap | None = None, plots: bool = True) -> ReportSummary:
+    """Read the run folders (merged, later runs winning) and write the report into `out`."""
+    boot = boot or Bootstrap()
+    data = load_runs(list(runs))
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    made = compute_tables(data, boot)
+    files: list[Path] = []
+    for table in made:
+        files.append(_write(out / f"{table.name}.md", to_markdown(table)))
+        files.append(_write(out / f"{table.name}.csv", to_csv(table)))
+    condition = plot_condition(data)
+    written: list[PlotEntry] = []
+    note = None
+    if not plots:
+        note = "Plots were not requested (--no-plots)."
+    elif condition is None:
+        note = "No episodes, so no plots."
+    else:
+        from cocobench_agents.report.plots import PlotsUnavailable, write_plots
+
+        try:
+            written = write_plots(made, out, condition)
+        except PlotsUnavailable as exc:
+            note = str(exc)
+        else:
+            if written:
+                note = f"Per-condition figures show {condition}."
+    files += [out / p.file for p in written]
+    files.insert(0, _write(out / "index.md", index_markdown(data, made, written, boot, note)))
+    return ReportSummary(out=out, files=files, tables=made, plots=written, plot_note=note,
+                         episodes=len(data.episodes), models=list(data.models),
+                         conditions=list(data.conditions), plot_condition=condition)
+
+
+def _write(path: Path, text: str) -> Path:
+    with open(path, "w", encoding="utf-8", newline="\n") as f:
+        f.write(text)
+    return path

@@ -1,0 +1,285 @@
+"""Reading run folders into one table of episodes.
+
+Each run folder's complete `results.jsonl` lines are read with `RunFolder.results()` (a torn
+last line of a run in progress or a killed run is skipped). An episode is identified by
+(model, condition, task_id, epoch): a later line supersedes an earlier one in the same run
+(retries), and a later run supersedes an earlier one when several runs are reported together,
+so the same model in several runs is merged into one set of episodes.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cocobench_agents.harness.store import RESULTS, RUN_FILE, RunFolder, RunFolderError
+
+DIMENSIONS = ("D1", "D2", "D3", "D4")
+OBS_ORDER = ("image", "blind")
+INFRA_KIND = "infra_error"
+UNRECORDED_KIND = "unrecorded"
+
+# Numeric columns: name -> how it is read from a result line (None when absent).
+_NUMERIC = {
+    "success": lambda r: r.get("task_success"),
+    "progress": lambda r: r.get("task_progress"),
+    "legal": lambda r: r.get("legal_plan"),
+    "cs": lambda r: r.get("construct_score"),
+    "steps": lambda r: r.get("num_steps"),
+    "invalid_ratio": lambda r: r.get("num_invalid_action_ratio"),
+    "dep": lambda r: _flag(r.get("dependency_violations")),
+    "occ": lambda r: _flag(r.get("occupancy_conflicts")),
+    "aff": lambda r: _flag(r.get("affordance_failures")),
+    "ill": lambda r: _flag(r.get("illegal_skill")),
+    "elapsed_s": lambda r: r.get("elapsed_s"),
+    "planner_calls": lambda r: _usage(r, "model_calls", r.get("planner_steps")),
+    "prompt_tokens": lambda r: _usage(r, "prompt_tokens"),
+    "completion_tokens": lambda r: _usage(r, "completion_tokens"),
+    "cost_usd": lambda r: _usage(r, "cost_usd"),
+    "agent_count": lambda r: r.get("agent_count"),
+    **{f"cross_{d}": (lambda r, d=d: _cross(r, d)) for d in DIMENSIONS},
+}
+
+
+class NotARunFolder(RunFolderError):
+    """A path given to the report that is not a run folder."""
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """What one run folder says about itself, and what was read from it."""
+
+    path: Path
+    name: str
+    record: Mapping[str, Any]
+    lines: int  # complete result lines
+    torn_tail: bool  # an incomplete last line was skipped
+    episodes: int  # distinct episodes after retries
+    infra_errors: int  # among those episodes
+    superseded: int  # lines replaced by a later line of the same run
+
+    @property
+    def models(self) -> list[str]:
+        return list(self.record.get("plan", {}).get("models") or [])
+
+    @property
+    def conditions(self) -> list[str]:
+        return list(self.record.get("plan", {}).get("conditions") or [])
+
+    @property
+    def planned(self) -> int | None:
+        """Episodes the run's plan asked for (None when run.json does not say)."""
+        plan = self.record.get("plan") or {}
+        tasks, models, conds = plan.get("task_ids"), plan.get("models"), plan.get("conditions")
+        if not (tasks and models and conds):
+            return None
+        return len(tasks) * len(models) * len(conds) * int(plan.get("epochs") or 1)
+
+
+@dataclass
+class Episodes:
+    """All reported episodes as columns (one entry per episode, in a fixed order)."""
+
+    text: dict[str, np.ndarray]  # model, condition, arch, obs, task_id, dim, failure_kind, ...
+    numeric: dict[str, np.ndarray]  # float64, NaN where missing
+    epoch: np.ndarray
+    run_index: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.epoch.size)
+
+    def col(self, name: str) -> np.ndarray:
+        return self.numeric[name]
+
+    def mask(self, **equal: Any) -> np.ndarray:
+        """Episodes whose text columns equal the given values (None: no constraint)."""
+        m = np.ones(len(self), dtype=bool)
+        for key, value in equal.items():
+            if value is not None:
+                m &= self.text[key] == value
+        return m
+
+
+@dataclass
+class ReportData:
+    """Episodes of one or several runs, merged, with the runs' metadata."""
+
+    runs: list[RunInfo]
+    episodes: Episodes
+    models: list[str]
+    conditions: list[str]
+    superseded_across_runs: int = 0
+    warnings: list[str] = field(default_factory=list)
+
+    def architectures(self) -> list[str]:
+        return _unique(split_condition(c)[0] for c in self.conditions)
+
+    def obs_modes(self) -> list[str]:
+        modes = _unique(split_condition(c)[1] for c in self.conditions)
+        return sorted(modes, key=lambda m: (OBS_ORDER.index(m) if m in OBS_ORDER else 9, m))
+
+
+def split_condition(condition: str) -> tuple[str, str]:
+    """`C0_image` -> ("C0", "image"); a name without an observation mode -> (name, "")."""
+    head, sep, tail = condition.rpartition("_")
+    if sep and head and tail in OBS_ORDER:
+        return head, tail
+    return condition, ""
+
+
+def check_run_folder(path: str | Path) -> Path:
+    """The path, if it is a run folder; else NotARunFolder with a one-line reason."""
+    p = Path(path)
+    if not p.exists():
+        raise NotARunFolder(f"{p}: no such run folder")
+    if not p.is_dir():
+        raise NotARunFolder(f"{p}: not a run folder (a file, not a folder)")
+    if not (p / RUN_FILE).is_file() and not (p / RESULTS).is_file():
+        raise NotARunFolder(f"{p}: not a run folder (no {RUN_FILE} or {RESULTS}; "
+                            "make one with `cocobench run --out DIR`)")
+    return p
+
+
+def load_runs(paths: Sequence[str | Path]) -> ReportData:
+    """Read and merge the run folders, later runs winning on duplicate episodes."""
+    if not paths:
+        raise NotARunFolder("no run folder given")
+    folders = [check_run_folder(p) for p in paths]
+    merged: dict[tuple, tuple[int, dict[str, Any]]] = {}
+    runs, models, conditions, across = [], [], [], 0
+    for index, path in enumerate(folders):
+        info, records = _read_run(path)
+        runs.append(info)
+        models += info.models
+        conditions += info.conditions
+        for key, record in records.items():
+            across += key in merged
+            merged[key] = (index, record)
+            models.append(key[0])
+            conditions.append(key[1])
+    present_models = {key[0] for key in merged}
+    present_conditions = {key[1] for key in merged}
+    # plan order first (run.json), then first appearance; only what has episodes
+    models = [m for m in _unique(models) if m in present_models]
+    conditions = _order_conditions([c for c in _unique(conditions) if c in present_conditions])
+    items = sorted(merged.items(), key=lambda kv: (
+        models.index(kv[0][0]), conditions.index(kv[0][1]), kv[0][2], kv[0][3]))
+    return ReportData(runs=runs, episodes=_columns(items), models=models,
+                      conditions=conditions, superseded_across_runs=across)
+
+
+def _read_run(path: Path) -> tuple[RunInfo, dict[tuple, dict[str, Any]]]:
+    folder = RunFolder(path)
+    record: dict[str, Any] = {}
+    if (path / RUN_FILE).is_file():
+        try:
+            record = folder.run_record()
+        except (OSError, json.JSONDecodeError) as exc:
+            raise NotARunFolder(f"{path / RUN_FILE}: unreadable ({exc})") from None
+    records: dict[tuple, dict[str, Any]] = {}
+    lines = 0
+    for line in folder.results():
+        if not isinstance(line, dict) or not line.get("task_id") or not line.get("condition"):
+            continue
+        lines += 1
+        key = (str(line.get("model") or "?"), str(line["condition"]), str(line["task_id"]),
+               int(line.get("epoch") or 0))
+        records.pop(key, None)  # keep file order of the latest line
+        records[key] = line
+    info = RunInfo(
+        path=path, name=str(record.get("name") or path.resolve().name), record=record,
+        lines=lines, torn_tail=_torn_tail(path / RESULTS), episodes=len(records),
+        infra_errors=sum(1 for r in records.values() if r.get("infra_error")),
+        superseded=lines - len(records))
+    return info, records
+
+
+def _torn_tail(results: Path) -> bool:
+    try:
+        with open(results, "rb") as f:
+            f.seek(0, 2)
+            if f.tell() == 0:
+                return False
+            f.seek(-1, 2)
+            return f.read(1) != b"\n"
+    except OSError:
+        return False
+
+
+def _columns(items: list[tuple[tuple, tuple[int, dict[str, Any]]]]) -> Episodes:
+    rows = [record for _, (_, record) in items]
+    conds = [key[1] for key, _ in items]
+    split = [split_condition(c) for c in conds]
+    text = {
+        "model": [key[0] for key, _ in items],
+        "condition": conds,
+        "arch": [a for a, _ in split],
+        "obs": [o for _, o in split],
+        "task_id": [key[2] for key, _ in items],
+        "dim": [str(r.get("dim") or "") for r in rows],
+        "failure_kind": [_failure_kind(r) for r in rows],
+    }
+    numeric = {name: np.array([_number(read(r)) for r in rows], dtype=np.float64)
+               for name, read in _NUMERIC.items()}
+    return Episodes(
+        text={k: np.array(v, dtype=object) for k, v in text.items()},
+        numeric=numeric,
+        epoch=np.array([key[3] for key, _ in items], dtype=np.int64),
+        run_index=np.array([index for _, (index, _) in items], dtype=np.int64))
+
+
+def _failure_kind(record: Mapping[str, Any]) -> str:
+    if record.get("infra_error"):
+        return INFRA_KIND
+    kind = record.get("failure_kind")
+    if kind is None and record.get("task_success"):
+        return "success"
+    return str(kind) if kind else UNRECORDED_KIND
+
+
+def _number(value: Any) -> float:
+    if value is None or isinstance(value, str):
+        return np.nan
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return np.nan
+
+
+def _flag(count: Any) -> float | None:
+    number = _number(count)
+    return None if np.isnan(number) else float(number > 0)
+
+
+def _usage(record: Mapping[str, Any], key: str, fallback: Any = None) -> Any:
+    usage = record.get("usage")
+    if isinstance(usage, Mapping) and usage.get(key) is not None:
+        return usage[key]
+    return fallback
+
+
+def _cross(record: Mapping[str, Any], dim: str) -> Any:
+    block = (record.get("cross_construct") or {}).get(dim)
+    if isinstance(block, Mapping) and block.get("status", "scored") == "scored":
+        return block.get("score")
+    return None
+
+
+def _unique(values: Iterable[str]) -> list[str]:
+    return list(dict.fromkeys(v for v in values if v is not None))
+
+
+def _order_conditions(conditions: list[str]) -> list[str]:
+    """Architectures in first-seen order, image before blind within each."""
+    archs = _unique(split_condition(c)[0] for c in conditions)
+
+    def key(condition: str) -> tuple[int, int, str]:
+        arch, obs = split_condition(condition)
+        return archs.index(arch), OBS_ORDER.index(obs) if obs in OBS_ORDER else 9, obs
+
+    return sorted(conditions, key=key)

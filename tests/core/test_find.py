@@ -1,0 +1,151 @@
+"""Find (reference §4.3): teleport to a pose from which the object is visible, never within
+0.45 m of a teammate, back to the start pose on failure."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from benchmark_adapter.skills.navigation import MIN_AGENT_SEPARATION
+
+from .worlds import (
+    DRAWER_A,
+    FRIDGE,
+    GHOST,
+    KITCHEN,
+    KNIFE,
+    LIGHT,
+    PLATE,
+    TOMATO,
+    Sim,
+    make_config,
+    make_sim,
+)
+
+
+def test_separation_constant_is_the_references() -> None:
+    assert MIN_AGENT_SEPARATION == 0.45
+
+
+def _distance(sim: Sim, a: int, b: int) -> float:
+    pa, pb = sim.world.agents[a], sim.world.agents[b]
+    return math.hypot(pa.x - pb.x, pa.z - pb.z)
+
+
+def _landing(sim: Sim, agent: int, object_id: str) -> tuple[float, float]:
+    result = sim.run(f"Find(agent_{agent + 1}, {object_id})")
+    assert result.success, result.errorMessage
+    a = sim.world.agents[agent]
+    return a.x, a.z
+
+
+@pytest.mark.parametrize("object_id", sorted(set(KITCHEN.values())))
+def test_find_makes_the_object_visible(object_id: str) -> None:
+    sim = make_sim()
+    result = sim.run(f"Find(agent_1, {object_id})")
+    assert result.success is True and result.errorMessage == ""
+    assert sim.obj(object_id, 0)["visible"] is True
+    # the acting agent's metadata says so; the other agent has not moved
+    assert result.native_trace[-1]["lastActionSuccess"] is True
+
+
+def test_find_is_deterministic() -> None:
+    first, second = make_sim(), make_sim()
+    assert _landing(first, 0, TOMATO) == _landing(second, 0, TOMATO)
+    assert first.pose(0) == second.pose(0)
+
+
+def test_find_avoids_the_pose_a_teammate_stands_on() -> None:
+    free = make_sim()
+    best = _landing(free, 0, TOMATO)
+
+    sim = make_sim()
+    sim.place(1, *best)
+    landed = _landing(sim, 0, TOMATO)
+    assert landed != best
+    assert _distance(sim, 0, 1) >= 0.45
+    assert sim.obj(TOMATO, 0)["visible"] is True
+
+
+@pytest.mark.parametrize("object_id", [TOMATO, FRIDGE, LIGHT, PLATE])
+def test_find_never_lands_next_to_any_teammate(object_id: str) -> None:
+    """Block the three best poses in turn with agents 2–4; Find still keeps 0.45 m away."""
+    config = make_config(agents=4)
+    blocked: list[tuple[float, float]] = []
+    for k in range(1, 4):
+        probe = make_sim(config)
+        for i, (x, z) in enumerate(blocked, start=1):
+            probe.place(i, x, z)
+        for i in range(len(blocked) + 1, 4):  # park the rest in a far corner row
+            probe.place(i, 3.0, -2.75 + 0.75 * i, 0.0)
+        blocked.append(_landing(probe, 0, object_id))
+        for other in range(1, 4):
+            assert _distance(probe, 0, other) >= 0.45, (k, other)
+        assert probe.obj(object_id, 0)["visible"] is True
+    assert len(set(blocked)) == 3
+
+
+def test_find_succeeds_from_many_starts_with_teammate_nearby() -> None:
+    sim = make_sim()
+    for x, z in [(-2.5, -2.5), (2.5, 2.5), (0.0, -2.0), (-2.0, 2.25)]:
+        sim.place(0, x, z, 90.0)
+        sim.place(1, *_landing(make_sim(), 0, KNIFE))
+        assert sim.run(f"Find(agent_1, {KNIFE})").success
+        assert _distance(sim, 0, 1) >= 0.45
+
+
+def _boxed_in() -> Sim:
+    """Every cell from which the Tomato can be seen lies next to agent_2.
+
+    The walkable floor is cut down to the 3×3 block around agent_2 (0.5, 0.75), next to the
+    Tomato (0.5, 0.2), plus agent_1's own cell far away (3.0, 3.0).
+    """
+    sim = make_sim()
+    cells = {(cx, cz) for cx in (1, 2, 3) for cz in (2, 3, 4)} | {(12, 12)}
+    sim.world.floor = frozenset(cells)
+    sim.place(0, 3.0, 3.0, 90.0, 30.0)
+    sim.place(1, 0.5, 0.75, 180.0)
+    return sim
+
+
+def test_find_fails_when_every_pose_is_occupied() -> None:
+    sim = _boxed_in()
+    start = sim.pose(0)
+    result = sim.run(f"Find(agent_1, {TOMATO})")
+    assert result.success is False
+    assert result.errorMessage == (
+        "Could not navigate to a visible, unoccupied pose for Tomato|+00.50|+00.95|+00.20")
+    assert sim.pose(0) == start  # teleported back to the start pose
+    assert sim.obj(TOMATO, 0)["visible"] is False
+    assert result.native_trace[-1]["action"]["action"] == "TeleportFull"
+    # no teleport ever targeted a cell next to agent_2
+    for entry in result.native_trace:
+        action = entry["action"]
+        if action["action"] == "TeleportFull":
+            assert math.hypot(action["x"] - 0.5, action["z"] - 0.75) >= 0.45
+
+
+def test_find_fails_for_an_object_shut_in_a_closed_drawer(kitchen: Sim) -> None:
+    for call in [f"Open(agent_1, {DRAWER_A})", f"PickUp(agent_1, {TOMATO})",
+                 f"Put(agent_1, {DRAWER_A})", f"Close(agent_1, {DRAWER_A})"]:
+        assert kitchen.run(call).success, call
+    start = kitchen.pose(1)
+    result = kitchen.run(f"Find(agent_2, {TOMATO})")
+    assert result.success is False
+    assert result.errorMessage == (
+        "Could not navigate to a visible, unoccupied pose for Tomato|+00.50|+00.95|+00.20")
+    assert kitchen.pose(1) == start
+    natives = [t["action"]["action"] for t in result.native_trace]
+    assert "GetReachablePositions" in natives  # the fallback was tried
+    assert natives[-1] == "TeleportFull"
+    assert all(t["action"]["agentId"] == 1 for t in result.native_trace)
+
+
+def test_find_a_missing_object(kitchen: Sim) -> None:
+    start = kitchen.pose(0)
+    result = kitchen.run(f"Find(agent_1, {GHOST})")
+    assert result.success is False
+    assert GHOST in result.errorMessage
+    assert result.native_trace == []
+    assert kitchen.pose(0) == start

@@ -1,0 +1,36 @@
+"""Shared fixtures of the planner tests."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from pathlib import Path
+
+import pytest
+
+from benchmark_adapter.tasks import TaskConfig, load_tasks
+from cocobench_agents.episode_runner import EpisodeSpec, run_episode
+from cocobench_agents.models import ModelPool, ModelSettings
+
+SHARED_TASKS = Path(__file__).resolve().parents[2].parent / "shared" / "cocobench-data" / "tasks"
+
+
+@pytest.fixture(scope="session")
+def demo() -> dict[str, TaskConfig]:
+    """The built-in demo instances by cell."""
+    return {c.cell: c for c in load_tasks("demo")}
+
+
+@pytest.fixture
+def script(tmp_path: Path):
+    """Write a scripted model's replies; return its model spec."""
+    def write(replies: dict[str, list[str]] | list[str]) -> str:
+        path = tmp_path / f"script{len(list(tmp_path.iterdir()))}.json"
+        path.write_text(json.dumps(replies), encoding="utf-8")
+        return f"scripted:{path}"
+    return write
+
+
+def run(spec: EpisodeSpec, pool: ModelPool | None = None):
+    """Run one episode synchronously; return (trajectory, result)."""
+    return asyncio.run(run_episode(spec, pool or ModelPool(ModelSettings())))
