@@ -19,7 +19,7 @@ from cocobench_agents.graphs.state import PlannerState
 POLICY = "distributed_vlm"
 
 
-def fan_out(state: PlannerState) -> list[Send] | str:
+async def fan_out(state: PlannerState) -> list[Send] | str:
     """One `decide_agent` branch per agent, each with only what that agent may know."""
     if state.get("terminal_reason"):
         return END

@@ -17,6 +17,7 @@ from langgraph.runtime import Runtime
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decentralized import add_round, fan_out
 from cocobench_agents.graphs.decide import accepts_images
+from cocobench_agents.graphs.nodes import continue_or_end
 from cocobench_agents.graphs.state import TEAM, PlannerState
 from cocobench_agents.models.protocol import ModelError, ModelRequest
 from cocobench_agents.prompts import history_line
@@ -74,8 +75,8 @@ def build_leader_worker() -> StateGraph:
     graph.add_node("team_history", remember_team)
     graph.add_node("lead", lead)
     graph.add_edge(START, "observe")
-    graph.add_conditional_edges("observe", lambda s: END if s.get("terminal_reason")
-                                else "team_history", ["team_history", END])
+    graph.add_conditional_edges("observe", continue_or_end("team_history"),
+                                ["team_history", END])
     graph.add_edge("team_history", "lead")
     graph.add_conditional_edges("lead", fan_out, ["decide_agent", END])
     return graph

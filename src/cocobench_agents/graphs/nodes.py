@@ -63,7 +63,10 @@ async def land_round(state: PlannerState, runtime: Runtime[PlannerContext]) -> d
 
 
 def continue_or_end(next_node: str):
-    """A router: END once a terminal reason is set, else `next_node`."""
-    def route(state: PlannerState) -> str:
+    """A router: END once a terminal reason is set, else `next_node`.
+
+    Routers are async: LangGraph runs a sync router in a worker thread, a costly hop per step.
+    """
+    async def route(state: PlannerState) -> str:
         return END if state.get("terminal_reason") else next_node
     return route

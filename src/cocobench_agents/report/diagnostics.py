@@ -5,7 +5,14 @@ from __future__ import annotations
 
 from benchmark_adapter.metrics import FAILURE_KINDS
 from cocobench_agents.report.load import DIMENSIONS, INFRA_KIND, UNRECORDED_KIND
-from cocobench_agents.report.stats import mean_ci, paired_diff_ci, pearson_ci, total
+from cocobench_agents.report.stats import (
+    Estimate,
+    clean,
+    mean_ci,
+    paired_diff_ci,
+    pearson_ci,
+    total,
+)
 from cocobench_agents.report.table import Column, Table
 from cocobench_agents.report.tables import Ctx
 
@@ -137,10 +144,20 @@ def construct_correlation(ctx: Ctx) -> Table:
             continue
         matrix = {}
         for i in range(len(DIMENSIONS)):
-            for j in range(i, len(DIMENSIONS)):
+            matrix[i, i] = self_correlation(scores[i][mask])
+            for j in range(i + 1, len(DIMENSIONS)):
                 est = pearson_ci(scores[i][mask], scores[j][mask], ctx.boot)
                 matrix[i, j] = matrix[j, i] = est
         for i, d in enumerate(DIMENSIONS):
             table.rows.append([block, d, *(matrix[i, j] for j in range(len(DIMENSIONS)))])
     return table
 
+
+
+def self_correlation(scores) -> Estimate:
+    """The diagonal: r = 1 exactly (no resampling needed), NA like any pair when the score
+    has fewer than 3 values or is constant."""
+    x = clean(scores)
+    if x.size < 3 or float(x.max() - x.min()) <= 1e-12:
+        return Estimate(None, None, None, int(x.size))
+    return Estimate(1.0, 1.0, 1.0, int(x.size))

@@ -89,6 +89,8 @@ class Episodes:
     numeric: dict[str, np.ndarray]  # float64, NaN where missing
     epoch: np.ndarray
     run_index: np.ndarray
+    _codes: dict[str, tuple[dict[str, int], np.ndarray]] = field(default_factory=dict,
+                                                                 repr=False)
 
     def __len__(self) -> int:
         return int(self.epoch.size)
@@ -101,8 +103,18 @@ class Episodes:
         m = np.ones(len(self), dtype=bool)
         for key, value in equal.items():
             if value is not None:
-                m &= self.text[key] == value
+                levels, codes = self._coded(key)
+                m &= codes == levels.get(value, -1)
         return m
+
+    def _coded(self, key: str) -> tuple[dict[str, int], np.ndarray]:
+        """A text column as integer codes (comparing ints is much faster than strings)."""
+        if key not in self._codes:
+            levels: dict[str, int] = {}
+            codes = np.array([levels.setdefault(v, len(levels)) for v in self.text[key]],
+                             dtype=np.int32)
+            self._codes[key] = (levels, codes)
+        return self._codes[key]
 
 
 @dataclass

@@ -15,6 +15,7 @@ O(levels) instead of O(n) per resample; other values are resampled by index in c
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -24,6 +25,7 @@ DEFAULT_RESAMPLES = 2000
 DEFAULT_SEED = 20240601
 DEFAULT_CONFIDENCE = 0.95
 _CHUNK_ELEMENTS = 2_000_000  # resampled values held in memory at once
+_LOCAL = threading.local()  # one reusable generator per thread, reset for every estimate
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,27 @@ class Bootstrap:
         """A fresh generator: every estimate draws the same random stream. NumPy's legacy
         RandomState is used on purpose: its streams are frozen across NumPy versions, so
         intervals (and golden files) do not change when NumPy is upgraded."""
-        return np.random.RandomState(self.seed)
+        cache = getattr(_LOCAL, "states", None)
+        if cache is None:
+            cache = _LOCAL.states = {}
+            _LOCAL.rng = np.random.RandomState(0)
+        if self.seed not in cache:
+            cache[self.seed] = np.random.RandomState(self.seed).get_state()
+        _LOCAL.rng.set_state(cache[self.seed])
+        return _LOCAL.rng
+
+    def interval(self, stats: np.ndarray) -> tuple[float, float]:
+        """Percentile interval of resampled statistics (linear interpolation, as
+        `numpy.quantile`'s default)."""
+        ordered = np.sort(stats)
+        out = []
+        for q in self.quantiles:
+            pos = q * (ordered.size - 1)
+            below = math.floor(pos)
+            above = min(below + 1, ordered.size - 1)
+            frac = pos - below
+            out.append(float(ordered[below] + (ordered[above] - ordered[below]) * frac))
+        return out[0], out[1]
 
 
 @dataclass(frozen=True)
@@ -94,7 +116,7 @@ def mean_ci(values: Sequence[float] | np.ndarray, boot: Bootstrap | None = None)
     if levels.size == 1:
         return Estimate(value, value, value, n)
     means = _resampled_means(x, levels, counts, boot)
-    lo, hi = (float(q) for q in np.quantile(means, boot.quantiles))
+    lo, hi = boot.interval(means)
     # Percentile intervals of very skewed data can, in rare cases, miss the estimate itself.
     return Estimate(value, min(lo, value), max(hi, value), n)
 
@@ -151,7 +173,7 @@ def pearson_ci(x: Sequence[float] | np.ndarray, y: Sequence[float] | np.ndarray,
     rs = rs[~np.isnan(rs)]
     if rs.size == 0:
         return Estimate(r, r, r, n)
-    lo, hi = (float(q) for q in np.quantile(rs, boot.quantiles))
+    lo, hi = boot.interval(rs)
     return Estimate(r, min(lo, r), max(hi, r), n)
 
 

@@ -1,0 +1,73 @@
+"""A run killed by a real SIGKILL midway and resumed equals an uninterrupted run, episode for
+episode; results do not depend on --jobs; an existing folder is refused without --resume."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+RUN = [sys.executable, "-m", "cocobench_agents.cli", "run", "--suite", "demo",
+       "--model", "random:7", "--conditions", "all"]
+
+
+def cocobench(out: Path, *extra: str) -> subprocess.CompletedProcess:
+    return subprocess.run([*RUN, "--out", str(out), *extra], capture_output=True, text=True,
+                          timeout=300)
+
+
+def episodes(folder: Path) -> dict[tuple, dict]:
+    """Result lines by episode key, without wall-clock fields; plus trajectory texts."""
+    out = {}
+    for line in (folder / "results.jsonl").read_text().splitlines():
+        record = json.loads(line)
+        key = (record["model"], record["condition"], record["task_id"], record["epoch"])
+        record.pop("elapsed_s")
+        trajectory = (folder / record["trajectory"]).read_text()
+        out[key] = (record, trajectory)
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference_run(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("runs") / "whole"
+    done = cocobench(out, "--jobs", "1")
+    assert done.returncode == 0, done.stderr
+    return out
+
+
+def test_a_killed_and_resumed_run_equals_an_uninterrupted_one(reference_run, tmp_path):
+    out = tmp_path / "killed"
+    process = subprocess.Popen([*RUN, "--out", str(out), "--jobs", "2"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = out / "results.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if results.exists() and len(results.read_text().splitlines()) >= 5:
+            break
+        time.sleep(0.01)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    recorded = len(results.read_text().splitlines())
+    assert 5 <= recorded < 24, "the kill must land midway"
+
+    refused = cocobench(out)
+    assert refused.returncode == 2 and "--resume" in refused.stderr
+
+    resumed = cocobench(out, "--resume")
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"({recorded} already done)" in resumed.stderr or "already done" in resumed.stderr
+    assert episodes(out) == episodes(reference_run)
+
+
+def test_results_do_not_depend_on_jobs(reference_run, tmp_path):
+    out = tmp_path / "parallel"
+    done = cocobench(out, "--jobs", "8")
+    assert done.returncode == 0, done.stderr
+    assert episodes(out) == episodes(reference_run)
