@@ -9,7 +9,7 @@ from typing import Any
 from benchmark_adapter import goals
 from benchmark_adapter.menu import ActionSpace, MenuEntry, compact
 from benchmark_adapter.scene_setup import apply_init_actions
-from benchmark_adapter.sim.protocol import Controller, Metadata
+from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.skills import SkillExecutor, SkillResult
 from benchmark_adapter.tasks.config import TaskConfig
 from benchmark_adapter.trajectory import state_record, trajectory_document, write_json_atomic
@@ -67,8 +67,13 @@ class Episode:
         self.board: list[dict[str, Any]] = []
         self._space: ActionSpace | None = None
         self._space_key: tuple = ()
+        self._menu: list[MenuEntry] = []
+        self._menu_key: tuple = ()
+        self.goals = goals.GoalSet(config)
+        self._steps: list[dict[str, Any]] = []  # skill_result records, in order
+        self._objects: list[dict[str, Any]] = []  # agent 0's objects now
+        self._agents: list[dict[str, Any]] = []  # each agent's hand and last action now
         self._frame_cache: dict[tuple[int, str], bytes] = {}
-        self._metadata: list[Metadata] = []
 
     # -- lifecycle ---------------------------------------------------------------------
 
@@ -77,7 +82,7 @@ class Episode:
         self.controller.reset()
         self.init_trace = apply_init_actions(self.controller, self.config.init_state.init_actions)
         self.step_index = self.round_index = 0
-        self.items, self.board = [], []
+        self.items, self.board, self._steps = [], [], []
         self._refresh()
         item = self._item("init")
         item["native_trace"] = self.init_trace
@@ -96,7 +101,8 @@ class Episode:
         result = self.executor.execute(call)
         self.step_index += 1
         self._refresh()
-        item = self._item(call, result.to_dict())
+        self._steps.append(result.to_dict())
+        item = self._item(call, self._steps[-1])
         if round_index is not None:
             item["round_index"], item["message"] = round_index, message
         if decision is not None:
@@ -126,16 +132,17 @@ class Episode:
     def observe(self) -> Observation:
         """The current observation: menu, goal, progress, inventories, frames."""
         space = self._space
-        objects = self._metadata[0]["objects"]
-        evaluation = self.evaluate()
+        # The last recorded item was evaluated on exactly the current state.
+        evaluation = self.items[-1]["eval"] if self.items else self.evaluate()
         return Observation(
             step_index=self.step_index,
             round_index=self.round_index,
             agents=self.config.agent_ids,
-            goal_text=goals.goal_text(self.config, space.alias_of),
-            progress_text=goals.progress_text(self.config, space.alias_of, evaluation),
+            goal_text=goals.goal_text(self.config, space.alias_of, self.goals),
+            progress_text=goals.progress_text(self.config, space.alias_of, evaluation,
+                                              self.goals),
             evaluation=evaluation,
-            action_menu=compact(space, self.config, objects),
+            action_menu=self._compact_menu(),
             inventories=self.inventories(),
             messages=list(self.board),
             frames={a: self.frame(a) for a in self.config.agent_ids} if self.frames else {},
@@ -143,43 +150,50 @@ class Episode:
 
     def evaluate(self) -> dict[str, Any]:
         """Goal check against agent 0's metadata and the recorded steps."""
-        steps = [i["skill_result"] for i in self.items if "skill_result" in i]
-        return goals.evaluate(self.config, self._metadata[0]["objects"], steps)
+        return self.goals.evaluate(self._objects, self._steps)
 
     def inventories(self) -> dict[str, list[str]]:
         """Held object ids per agent."""
-        return {
-            a: [o["objectId"] for o in md["inventoryObjects"]]
-            for a, md in zip(self.config.agent_ids, self._metadata)
-        }
+        return {a: [o["objectId"] for o in md["inventoryObjects"]]
+                for a, md in zip(self.config.agent_ids, self._agents)}
 
     def objects(self) -> list[dict[str, Any]]:
         """Agent 0's object metadata (privileged; for oracles and tools)."""
-        return list(self._metadata[0]["objects"])
+        return list(self._objects)
 
     # -- internals ---------------------------------------------------------------------
 
     def _refresh(self) -> None:
-        self._metadata = list(self.controller.last_metadata())
-        objects = self._metadata[0]["objects"]
+        metadata = self.controller.last_metadata()
+        # Plain copies only: holding the backend's metadata would make it freeze every
+        # agent's snapshot before the next change.
+        self._objects = list(metadata[0]["objects"])
+        self._agents = [{"inventoryObjects": list(md["inventoryObjects"]),
+                         "lastActionSuccess": md["lastActionSuccess"],
+                         "errorMessage": md["errorMessage"]} for md in metadata]
         # Γ only changes when an object appears, disappears or changes visibility to agent 0.
-        key = tuple((o["objectId"], o.get("visible")) for o in objects)
+        key = tuple((o["objectId"], o.get("visible")) for o in self._objects)
         if key != self._space_key:
-            self._space = ActionSpace.build(self.config.agent_ids, objects)
+            self._space = ActionSpace.build(self.config.agent_ids, self._objects)
             self._space_key = key
 
+    def _compact_menu(self) -> list[MenuEntry]:
+        # The compact menu changes with Γ, and in D4 with what lies on the buffer.
+        relay = self.config.producer_consumer is not None
+        key = (self._space_key, tuple(tuple(o.get("parentReceptacles") or ())
+                                      for o in self._objects) if relay else None)
+        if key != self._menu_key:
+            self._menu = compact(self._space, self.config, self._objects)
+            self._menu_key = key
+        return self._menu
+
     def _item(self, label: str, skill_result: dict[str, Any] | None = None) -> dict[str, Any]:
-        item: dict[str, Any] = {
-            "step_index": self.step_index,
-            "label": label,
-            "image": None,
-            "state": state_record(self.config, self._metadata),
-        }
-        steps = [i["skill_result"] for i in self.items if "skill_result" in i]
-        if skill_result is not None:  # a step's eval includes the step itself (sliced_by)
+        item: dict[str, Any] = {"step_index": self.step_index, "label": label, "image": None,
+                                "state": state_record(self.config, self._objects, self._agents)}
+        if skill_result is not None:
             item["skill_result"] = skill_result
-            steps.append(skill_result)
-        item["eval"] = goals.evaluate(self.config, self._metadata[0]["objects"], steps)
+        # A step's eval includes the step itself (sliced_by): it is already in _steps.
+        item["eval"] = self.evaluate()
         return item
 
     def frame(self, agent: str) -> bytes:

@@ -119,17 +119,42 @@ CHECKS: dict[str, Callable[[Objects, Args, Steps], tuple[bool, str]]] = {
 }
 
 
+class GoalSet:
+    """A config's goal predicates with their arguments resolved once (an episode evaluates
+    them after every step)."""
+
+    def __init__(self, config: TaskConfig) -> None:
+        self.config = config
+        self.goals = [(g, Args.of(g, config)) for g in config.goal_predicates]
+
+    def evaluate(self, objects: Sequence[Mapping[str, Any]], steps: Steps) -> dict[str, Any]:
+        """`{success, checks}` for every goal predicate; a missing object fails its check."""
+        by_id = {o["objectId"]: o for o in objects}
+        checks = [_check(goal, args, by_id, steps) for goal, args in self.goals]
+        return {"success": all(c.passed for c in checks),
+                "checks": [c.to_dict() for c in checks]}
+
+    def phrases(self, alias_of: Mapping[str, str]) -> list[str]:
+        """One phrase per predicate, naming objects by their current menu alias."""
+        def name(object_id: str) -> str:
+            alias = alias_of.get(object_id) or object_id.split("|")[0]
+            return alias.replace("_", " ")
+
+        out = []
+        for goal, args in self.goals:
+            phrase = PHRASES.get(goal.predicate)
+            out.append(phrase(name, args) if phrase else f"{goal.predicate} {args.obj}")
+        return out
+
+
 def evaluate(
     config: TaskConfig, objects: Sequence[Mapping[str, Any]], steps: Steps
 ) -> dict[str, Any]:
     """`{success, checks}` for every goal predicate; a missing object fails its check."""
-    by_id = {o["objectId"]: o for o in objects}
-    checks = [_check(goal, config, by_id, steps) for goal in config.goal_predicates]
-    return {"success": all(c.passed for c in checks), "checks": [c.to_dict() for c in checks]}
+    return GoalSet(config).evaluate(objects, steps)
 
 
-def _check(goal: GoalPredicate, config: TaskConfig, by_id: Objects, steps: Steps) -> Check:
-    args = Args.of(goal, config)
+def _check(goal: GoalPredicate, args: Args, by_id: Objects, steps: Steps) -> Check:
     subject = args.obj or args.source
     fn = CHECKS.get(goal.predicate)
     if fn is None:
@@ -162,35 +187,27 @@ def goal_title(config: TaskConfig) -> str:
     return config.task_name.replace("_", " ").capitalize()
 
 
-def goal_phrases(config: TaskConfig, alias_of: Mapping[str, str]) -> list[str]:
+def goal_phrases(config: TaskConfig, alias_of: Mapping[str, str],
+                 goal_set: GoalSet | None = None) -> list[str]:
     """One phrase per predicate, naming objects by their current menu alias."""
-
-    def name(object_id: str) -> str:
-        alias = alias_of.get(object_id) or object_id.split("|")[0]
-        return alias.replace("_", " ")
-
-    out = []
-    for goal in config.goal_predicates:
-        phrase = PHRASES.get(goal.predicate)
-        args = Args.of(goal, config)
-        out.append(phrase(name, args) if phrase else f"{goal.predicate} {args.obj}")
-    return out
+    return (goal_set or GoalSet(config)).phrases(alias_of)
 
 
-def goal_text(config: TaskConfig, alias_of: Mapping[str, str]) -> str:
+def goal_text(config: TaskConfig, alias_of: Mapping[str, str],
+              goal_set: GoalSet | None = None) -> str:
     """`{Title}:` then the numbered predicate phrases."""
-    lines = [f"  {i}. {p}" for i, p in enumerate(goal_phrases(config, alias_of), 1)]
+    phrases = goal_phrases(config, alias_of, goal_set)
+    lines = [f"  {i}. {p}" for i, p in enumerate(phrases, 1)]
     return "\n".join([f"{goal_title(config)}:", *lines])
 
 
-def progress_text(
-    config: TaskConfig, alias_of: Mapping[str, str], evaluation: Mapping[str, Any]
-) -> str:
+def progress_text(config: TaskConfig, alias_of: Mapping[str, str], evaluation: Mapping[str, Any],
+                  goal_set: GoalSet | None = None) -> str:
     """The live progress block: `[✓]`/`[✗]` per predicate, then `k/n objectives complete.`"""
     checks = evaluation["checks"]
     if not checks:
         return "  (no goal predicates)"
-    phrases = goal_phrases(config, alias_of)
+    phrases = goal_phrases(config, alias_of, goal_set)
     lines = [f"  [{'✓' if c['passed'] else '✗'}] {p}" for c, p in zip(checks, phrases)]
     done = sum(1 for c in checks if c["passed"])
     return "\n".join([*lines, f"  {done}/{len(checks)} objectives complete."])

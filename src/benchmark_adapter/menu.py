@@ -153,9 +153,10 @@ def compact(
     important = set(config.important_ids)
     parents = {o["objectId"]: o.get("parentReceptacles") or [] for o in agent0_objects}
     gate = _RoleGate(config, parents)
+    allowed_by_agent = {a: set(config.allowed_skills_for(a)) for a in config.agent_ids}
     out = []
     for e in space.entries:
-        allowed = config.allowed_skills_for(e.agent)
+        allowed = allowed_by_agent.get(e.agent) or set(config.allowed_skills_for(e.agent))
         if allowed and e.skill not in allowed:
             continue
         if not gate.allows(e):

@@ -9,7 +9,6 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from benchmark_adapter.sim.protocol import Metadata
 from benchmark_adapter.tasks.config import TaskConfig
 
 # Object fields the reference records per step, plus isOpen/isSliced (harmless extras that
@@ -26,9 +25,11 @@ STATE_FIELDS = (
 )
 
 
-def state_record(config: TaskConfig, metadata: Sequence[Metadata]) -> dict[str, Any]:
-    """The `state` of a step: important objects (agent 0's view) and every agent's hand."""
-    by_id = {o["objectId"]: o for o in metadata[0]["objects"]}
+def state_record(config: TaskConfig, objects: Sequence[Mapping[str, Any]],
+                 agents: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The `state` of a step: important objects (agent 0's view) and every agent's hand
+    (`inventoryObjects`, `lastActionSuccess`, `errorMessage` per agent, in config order)."""
+    by_id = {o["objectId"]: o for o in objects}
     objects = {}
     for alias, oid in config.init_state.objects.items():
         obj = by_id.get(oid)
@@ -44,7 +45,7 @@ def state_record(config: TaskConfig, metadata: Sequence[Metadata]) -> dict[str, 
             "lastActionSuccess": bool(md["lastActionSuccess"]),
             "errorMessage": md["errorMessage"] or "",
         }
-        for agent_id, md in zip(config.agent_ids, metadata)
+        for agent_id, md in zip(config.agent_ids, agents)
     ]
     return {"objects": objects, "agents": agents}
 

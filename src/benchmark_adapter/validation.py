@@ -7,6 +7,7 @@ plan, and the oracle's construct score on the instance's own dimension is at lea
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -17,6 +18,7 @@ from benchmark_adapter.metrics import score_trajectory
 from benchmark_adapter.metrics.steps import NOOP_MARKERS, has_marker
 from benchmark_adapter.oracles import run_oracle
 from benchmark_adapter.oracles.runner import VALIDATION_MAX_STEPS
+from benchmark_adapter.sim.backends import make_controller
 from benchmark_adapter.tasks.config import TaskConfig
 
 METRIC_GATE = 0.95
@@ -44,10 +46,13 @@ class ValidationRow:
         return asdict(self)
 
 
-def validate_task(config: TaskConfig, max_steps: int = VALIDATION_MAX_STEPS) -> ValidationRow:
-    """Run the oracle of one instance and apply the three gates."""
+def validate_task(config: TaskConfig, max_steps: int = VALIDATION_MAX_STEPS,
+                  backend: str = "embedded") -> ValidationRow:
+    """Run the oracle of one instance on `backend` and apply the three gates."""
+    controller = None
     try:
-        trajectory = run_oracle(config, max_steps=max_steps)
+        controller = None if backend == "embedded" else make_controller(config, backend)
+        trajectory = run_oracle(config, controller, max_steps=max_steps)
         result = score_trajectory(trajectory)
     except Exception as exc:  # noqa: BLE001 -  # a broken instance is a failed row, not a crashed run
         return ValidationRow(
@@ -100,12 +105,14 @@ def _failure_reason(trajectory: dict[str, Any], result: Any) -> str:
     return ""
 
 
-def validate_tasks(configs: Iterable[TaskConfig], jobs: int = 1) -> Iterator[ValidationRow]:
+def validate_tasks(configs: Iterable[TaskConfig], jobs: int = 1, backend: str = "embedded"
+                   ) -> Iterator[ValidationRow]:
     """Validate instances, `jobs` processes at a time; rows come back in input order."""
     configs = list(configs)
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(configs) or 1))
+    check = functools.partial(validate_task, backend=backend)
     if jobs == 1:
-        yield from map(validate_task, configs)
+        yield from map(check, configs)
         return
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        yield from pool.map(validate_task, configs, chunksize=max(1, len(configs) // (jobs * 8)))
+        yield from pool.map(check, configs, chunksize=max(1, len(configs) // (jobs * 8)))

@@ -109,7 +109,7 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
 
 async def _invoke(spec: EpisodeSpec, context: PlannerContext, steps: int) -> None:
     await compiled_graph(spec.planner).ainvoke(
-        {"agents": spec.config.agent_ids, "round_index": 0, "history": {}, "messages": [],
+        {"agents": spec.config.agent_ids, "round_index": 1, "history": {}, "messages": [],
          "terminal_reason": None},
         context=context,
         # A fresh thread per episode; each landed step takes a few supersteps.

@@ -33,11 +33,12 @@ def test_list_demo_table(capsys) -> None:
     code, out, err = run(capsys, "list", "demo")
     assert code == 0 and err == ""
     lines = out.splitlines()
-    assert lines[0].split() == ["task_id", "cell", "family", "dim", "agents", "scene", "budget"]
+    assert lines[0].split() == ["task_id", "cell", "family", "dim", "agents", "scene", "room",
+                                "budget"]
     assert set(lines[1]) == {"-", " "}
     assert [line.split()[0] for line in lines[2:6]] == DEMO_IDS
     assert lines[4].split() == ["J_D4__DemoBedroom2__seed0", "J_D4", "J", "D4", "2",
-                                "DemoBedroom2", "60"]
+                                "DemoBedroom2", "bedroom", "60"]
     assert lines[-1] == "4 instances"
 
 
@@ -47,13 +48,14 @@ def test_list_demo_json(capsys) -> None:
     records = json.loads(out)
     assert [r["task_id"] for r in records] == DEMO_IDS
     for record in records:
-        assert set(record) == {"task_id", "cell", "family", "dim", "agents", "scene", "budget"}
+        assert set(record) == {"task_id", "cell", "family", "dim", "agents", "scene", "room",
+                               "task_type", "budget"}
     assert records[0] == {"task_id": "C_D2__DemoBedroom1__3agent_seed0", "cell": "C_D2",
                           "family": "C", "dim": "D2", "agents": 3, "scene": "DemoBedroom1",
-                          "budget": 34}
+                          "room": "bedroom", "task_type": None, "budget": 34}
     assert records[3] == {"task_id": "K_D3__DemoKitchen1__seed0", "cell": "K_D3",
                           "family": "K", "dim": "D3", "agents": 2, "scene": "DemoKitchen1",
-                          "budget": 24}
+                          "room": "kitchen", "task_type": None, "budget": 24}
 
 
 def test_list_a_folder_and_a_file(capsys, tmp_path: Path) -> None:

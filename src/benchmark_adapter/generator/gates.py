@@ -51,13 +51,16 @@ class Verdict:
         return self.gate is None
 
 
-def judge(config_data: dict[str, Any]) -> Verdict:
-    """Run the three gates on a candidate config, stopping at the first that rejects it."""
+def judge(config_data: dict[str, Any], backend: str = "embedded") -> Verdict:
+    """Run the three gates on a candidate config, stopping at the first that rejects it.
+
+    The placement gate reads the embedded world; the oracle and metric gates run on
+    `backend`."""
     config = TaskConfig.model_validate(config_data)
     problems = placement_problems(config)
     if problems:
         return Verdict(config.task_id, "placement", problems[0])
-    row = validate_task(config)
+    row = validate_task(config, backend=backend)
     if row.passed:
         return Verdict(config.task_id, None)
     gate = row.reason.split(":", 1)[0]

@@ -9,6 +9,7 @@ and the rejection counts do not depend on `jobs` or on batch sizes.
 
 from __future__ import annotations
 
+import functools
 import os
 import random
 import zlib
@@ -82,20 +83,23 @@ def candidates(stratum: Stratum) -> Iterator[Candidate]:
                                  stratum.agents, seed)
 
 
-def judge_all(batch: list[Candidate], pool: Executor | None) -> list[Verdict]:
+def judge_all(batch: list[Candidate], pool: Executor | None, backend: str = "embedded"
+              ) -> list[Verdict]:
     """Verdicts for a batch, in order."""
     configs = [c.config for c in batch if c.config is not None]
+    check = functools.partial(judge, backend=backend)
     if pool is None:
-        judged = iter(list(map(judge, configs)))
+        judged = iter(list(map(check, configs)))
     else:
-        judged = iter(list(pool.map(judge, configs, chunksize=8)))
+        judged = iter(list(pool.map(check, configs, chunksize=8)))
     return [
         next(judged) if c.config is not None else Verdict(c.task_id, "placement", c.problem)
         for c in batch
     ]
 
 
-def run_strata(strata: list[Stratum], jobs: int = 1) -> list[StratumResult]:
+def run_strata(strata: list[Stratum], jobs: int = 1, backend: str = "embedded"
+               ) -> list[StratumResult]:
     """Fill every stratum with candidates that pass the gates."""
     streams = {s: candidates(s) for s in strata}
     results = {s: StratumResult(s) for s in strata}
@@ -104,7 +108,8 @@ def run_strata(strata: list[Stratum], jobs: int = 1) -> list[StratumResult]:
     with context as pool:
         while not all(r.full for r in results.values()):
             batch = _next_batch(results, streams)
-            for (stratum, candidate), verdict in zip(batch, judge_all([c for _, c in batch], pool)):
+            verdicts = judge_all([c for _, c in batch], pool, backend)
+            for (stratum, candidate), verdict in zip(batch, verdicts):
                 _record(results[stratum], candidate, verdict)
     return list(results.values())
 
@@ -136,9 +141,9 @@ def _record(result: StratumResult, candidate: Candidate, verdict: Verdict) -> No
         result.kept.append(candidate.config)
 
 
-def generate(jobs: int = 1) -> list[StratumResult]:
+def generate(jobs: int = 1, backend: str = "embedded") -> list[StratumResult]:
     """Run the generator for the whole of `cocobench-full`."""
-    return run_strata(full_strata(), jobs)
+    return run_strata(full_strata(), jobs, backend)
 
 
 def rejection_table(results: list[StratumResult]) -> list[dict[str, Any]]:

@@ -76,9 +76,13 @@ def thor_scene(floor_plan: str, seed: int = 0) -> Scene:  # pragma: no cover - n
     """Start AI2-THOR on a FloorPlan (after `InitialRandomSpawn(seed)` when seed > 0) and
     read its catalogue entry. Needs a machine that can run the simulator."""
     require_thor()
-    from ai2thor.controller import Controller
+    from benchmark_adapter.sim.thor.launch import open_controller
+    from benchmark_adapter.sim.thor.options import ThorOptions
+    from benchmark_adapter.sim.thor.pool import shutdown
 
-    controller = Controller(scene=floor_plan, agentMode="default", renderImage=False)
+    # Our launcher: headless platform choice and a guarded build lookup.
+    controller = open_controller(ThorOptions.from_env(), floor_plan,
+                                 {"agentMode": "default", "renderImage": False})
     try:
         if seed > 0:
             controller.step(
@@ -90,4 +94,4 @@ def thor_scene(floor_plan: str, seed: int = 0) -> Scene:  # pragma: no cover - n
             )
         return scene_from_thor_metadata(floor_plan, controller.last_event.metadata["objects"], seed)
     finally:
-        controller.stop()
+        shutdown(controller)

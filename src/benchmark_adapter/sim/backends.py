@@ -62,6 +62,19 @@ def controller_factory(
     return functools.partial(make_controller, backend=backend, **options)
 
 
+def check_backend(backend: str = DEFAULT_BACKEND, **options: Any) -> None:
+    """Everything that can be checked before the first episode, without starting anything:
+    the name, the options and, for `ai2thor`, the package and a renderer (raises
+    `ThorUnavailable` with the remedy). Call it once at the start of a command."""
+    controller_factory(backend, **options)
+    if backend == "ai2thor":
+        from benchmark_adapter.sim.thor import ThorOptions, preflight
+        from benchmark_adapter.sim.thor.loader import require_ai2thor
+
+        require_ai2thor()
+        preflight(ThorOptions.from_env(**options))
+
+
 def _factory_for(backend: str) -> Callable[..., Controller]:
     try:
         return BACKENDS[backend]

@@ -6,9 +6,13 @@ import sys
 
 import click
 
+from benchmark_adapter.sim.thor.errors import ThorUnavailable
 from benchmark_adapter.tasks import TaskConfigError
 from cocobench_agents import __version__
+from cocobench_agents.cli.doctor_cmd import doctor_command
+from cocobench_agents.cli.generate_cmd import generate_command
 from cocobench_agents.cli.list_cmd import list_command
+from cocobench_agents.cli.report_cmd import report_command
 from cocobench_agents.cli.run_cmd import run_command
 from cocobench_agents.cli.score_cmd import score_command
 from cocobench_agents.cli.validate_cmd import validate_command
@@ -20,7 +24,7 @@ from cocobench_agents.prompts import PromptSuiteError
 USAGE_ERROR = 2
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback.
 USER_ERRORS = (TaskConfigError, ModelConfigError, RunFolderError, PlanError, PromptSuiteError,
-               UnknownPlanner)
+               UnknownPlanner, ThorUnavailable)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -33,6 +37,9 @@ cli.add_command(list_command)
 cli.add_command(validate_command)
 cli.add_command(score_command)
 cli.add_command(run_command)
+cli.add_command(generate_command)
+cli.add_command(report_command)
+cli.add_command(doctor_command)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,18 +2,19 @@
 
 Each check prints `ok`, `warn` or `fail` and, when something is off, a one-line remedy. Only
 what every run needs can fail (Python, the core packages, an embedded episode); what only
-some runs need (AI2-THOR, model API keys, LLM libraries) warns. API keys are reported as
+some runs need (AI2-THOR, model API keys, optional libraries) warns. API keys are reported as
 "set" or "not set", never shown.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import sys
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from importlib.metadata import PackageNotFoundError, version
+from importlib.metadata import PackageNotFoundError, requires, version
 from typing import Literal
 
 import click
@@ -72,25 +73,40 @@ def check_python() -> Check:
     return Check("fail", "python", found, f"use Python {wanted} or newer")
 
 
-def check_packages(lookup: Callable[[str], str | None] | None = None) -> list[Check]:
-    """Versions of the core packages (required) and of the optional ones."""
+def check_packages(
+    lookup: Callable[[str], str | None] | None = None, required: Sequence[str] | None = None
+) -> list[Check]:
+    """Versions of the packages every run needs (fail if missing) and of the optional ones
+    (warn). Required = the essentials plus cocobench-agents' own core requirements."""
     lookup = lookup or _installed_version
-    checks = []
-    for name in REQUIRED_PACKAGES:
-        found = lookup(name)
-        checks.append(
-            Check("ok", name, found)
-            if found
-            else Check(
-                "fail", name, "not installed", "pip install -e .  (or reinstall the package)"
-            )
-        )
+    required = list(dict.fromkeys([*REQUIRED_PACKAGES, *(required or core_requirements())]))
+    checks = [
+        Check("ok", name, found)
+        if (found := lookup(name))
+        else Check("fail", name, "not installed", "pip install -e .  (or reinstall the package)")
+        for name in required
+    ]
     for name, remedy in OPTIONAL_PACKAGES.items():
+        if name in required:
+            continue
         found = lookup(name)
         checks.append(
             Check("ok", name, found) if found else Check("warn", name, "not installed", remedy)
         )
     return checks + _ai2thor_version_check(lookup("ai2thor"))
+
+
+def core_requirements(distribution: str = "cocobench-agents") -> list[str]:
+    """Names of a distribution's requirements outside any extra, as installed."""
+    try:
+        specs = requires(distribution) or []
+    except PackageNotFoundError:
+        return []
+    return [
+        re.split(r"[\s<>=!~;\[(]", spec, maxsplit=1)[0].lower()
+        for spec in specs
+        if "extra ==" not in spec.replace('"', "").replace("'", "")
+    ]
 
 
 def _ai2thor_version_check(found: str | None) -> list[Check]:

@@ -18,6 +18,8 @@ from benchmark_adapter.generator import (
     suite_files,
     write_suite,
 )
+from benchmark_adapter.sim.backends import check_backend
+from cocobench_agents.cli.run_options import backend_option
 from cocobench_agents.cli.tables import table
 
 HEADERS = ("task_type", "cell", "candidates", "kept", *GATES)
@@ -52,11 +54,13 @@ SHOWN_PROBLEMS = 20
     help="Write nothing; verify the suites in the package data folder (or --out) are "
     "reproduced byte for byte. Exit 1 if not.",
 )
-def generate_command(suite: str, out: Path | None, jobs: int, check: bool) -> None:
+@backend_option
+def generate_command(suite: str, out: Path | None, jobs: int, check: bool, backend: str) -> None:
     """Generate the built-in suites from templates and scenes, keeping only candidates that
     pass the placement, oracle and metric gates, and print the rejections per task type."""
+    check_backend(backend)
     start = time.perf_counter()
-    results = generate(jobs=jobs)
+    results = generate(jobs=jobs, backend=backend)
     elapsed = time.perf_counter() - start
     rows = rejection_table(results)
     click.echo(table(HEADERS, [[r[h] for h in HEADERS] for r in rows]))

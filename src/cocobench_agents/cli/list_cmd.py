@@ -9,7 +9,7 @@ import click
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.cli.tables import table
 
-HEADERS = ("task_id", "cell", "family", "dim", "agents", "scene", "budget")
+HEADERS = ("task_id", "cell", "family", "dim", "agents", "scene", "room", "budget")
 
 
 def instance_record(config) -> dict:
@@ -21,6 +21,8 @@ def instance_record(config) -> dict:
         "dim": config.coordination_dim,
         "agents": config.agent_count,
         "scene": config.scene_id,
+        "room": config.provenance.get("room"),
+        "task_type": config.provenance.get("template"),
         "budget": config.budget,
     }
 

@@ -16,8 +16,11 @@ import click
 @click.option("--seed", type=int, default=None,
               help="Bootstrap seed (default: a fixed seed, so reports are reproducible).")
 @click.option("--no-plots", is_flag=True, help="Write the tables only.")
+@click.option("--plot-condition", metavar="COND", default=None,
+              help="Condition the per-condition figures show (default: C0_image, else the "
+                   "first condition).")
 def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed: int | None,
-                   no_plots: bool) -> None:
+                   no_plots: bool, plot_condition: str | None) -> None:
     """Write Markdown and CSV tables, PNG plots and an index.md for RUN folders.
 
     Several runs are reported side by side; a model found in several runs is merged, the
@@ -25,7 +28,7 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
     are reported from their complete result lines.
     """
     # Imported here: numpy and the report code load only when a report is made.
-    from cocobench_agents.report import Bootstrap, NotARunFolder, build_report
+    from cocobench_agents.report import Bootstrap, NotARunFolder, ReportError, build_report
     from cocobench_agents.report.load import check_run_folder
     from cocobench_agents.report.stats import DEFAULT_SEED
 
@@ -37,9 +40,12 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
     target = Path(out) if out else Path(runs[0]) / "report"
     boot = Bootstrap(resamples=resamples, seed=DEFAULT_SEED if seed is None else seed)
     try:
-        summary = build_report(list(runs), target, boot=boot, plots=not no_plots)
+        summary = build_report(list(runs), target, boot=boot, plots=not no_plots,
+                               condition=plot_condition)
     except NotARunFolder as exc:
         raise click.BadParameter(str(exc), param_hint="RUN") from None
+    except ReportError as exc:
+        raise click.UsageError(str(exc)) from None
     for path in summary.files:
         click.echo(str(path))
     click.echo(f"{summary.episodes} episodes, {len(summary.models)} model(s), "

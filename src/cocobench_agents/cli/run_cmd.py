@@ -10,8 +10,15 @@ from typing import Any
 
 import click
 
+from benchmark_adapter.sim.backends import check_backend
 from benchmark_adapter.tasks import load_tasks, select_tasks
-from cocobench_agents.cli.run_options import model_options, model_settings, selection_options
+from cocobench_agents.cli.run_options import (
+    backend_option,
+    model_options,
+    model_settings,
+    selection_options,
+)
+from cocobench_agents.cli.tables import table
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.harness import (
     Condition,
@@ -24,6 +31,7 @@ from cocobench_agents.harness import (
     plan_episodes,
     run_record,
 )
+from cocobench_agents.harness.summary import HEADERS, summary_rows
 from cocobench_agents.models import ModelPool
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
 
@@ -53,11 +61,11 @@ DEFAULT_TASKS = "cocobench-240"
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=8, show_default=True,
               help="Episodes run concurrently.")
 @click.option("--epochs", type=click.IntRange(min=1), default=1, show_default=True)
-@click.option("--resume", is_flag=True, help="Complete the missing episodes of --out.")
+@click.option("--resume", is_flag=True,
+              help="Complete the missing episodes of --out (starting the run if it is new).")
 @click.option("--retry-errors", is_flag=True,
               help="With --resume: re-run infrastructure failures and backend errors too.")
-@click.option("--backend", default="embedded", show_default=True,
-              type=click.Choice(["embedded", "ai2thor"]))
+@backend_option
 @click.option("--max-steps", type=click.IntRange(min=1), default=None,
               help="Override every instance's step budget.")
 @click.option("--stable-ids", is_flag=True,
@@ -67,6 +75,7 @@ DEFAULT_TASKS = "cocobench-240"
 def run_command(**kw: Any) -> None:
     """Run planners on CoCoBench instances and record one trajectory and one result per
     episode. Every model × condition × instance × epoch is one episode."""
+    check_backend(kw["backend"])
     folder = RunFolder(kw["out"])
     record = folder.open_for_resume() if kw["resume"] else None
     request = _request(kw, record)
@@ -153,10 +162,7 @@ def _check_models(pool: ModelPool, models: list[str], agent_models: dict[str, st
 
 
 def _summary(folder: RunFolder) -> None:
-    rows = list(folder.results())
-    ok = [r for r in rows if not r.get("infra_error")]
-    successes = sum(int(r.get("task_success") or 0) for r in ok)
-    errors = len(rows) - len(ok)
-    click.echo(f"{len(rows)} episodes recorded in {Path(folder.path) / 'results.jsonl'}: "
-               f"{successes}/{len(ok)} succeeded" + (f", {errors} failed to run" if errors
-                                                     else ""))
+    rows = summary_rows(folder.results())
+    click.echo(table(HEADERS, rows))
+    click.echo(f"results: {Path(folder.path) / 'results.jsonl'}  (cocobench report "
+               f"{folder.path} --out DIR for the paper's tables)")

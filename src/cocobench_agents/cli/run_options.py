@@ -8,7 +8,12 @@ from typing import Any
 
 import click
 
+from benchmark_adapter.sim.backends import BACKENDS
 from cocobench_agents.models import ModelSettings
+
+backend_option = click.option(
+    "--backend", type=click.Choice(sorted(BACKENDS)), default="embedded", show_default=True,
+    help="Simulator: the embedded one, or real AI2-THOR (pip install 'cocobench-agents[thor]').")
 
 
 def selection_options(command: Callable) -> Callable:

@@ -6,8 +6,10 @@ import time
 
 import click
 
+from benchmark_adapter.sim.backends import check_backend
 from benchmark_adapter.tasks import load_tasks
 from benchmark_adapter.validation import METRIC_GATE, validate_tasks
+from cocobench_agents.cli.run_options import backend_option
 from cocobench_agents.cli.tables import table
 
 HEADERS = ("task_id", "cell", "agents", "steps", "success", "legal", "construct", "result")
@@ -23,14 +25,16 @@ HEADERS = ("task_id", "cell", "agents", "steps", "success", "legal", "construct"
     show_default=True,
     help="Worker processes (0 = one per core).",
 )
-def validate_command(source: str, jobs: int) -> None:
+@backend_option
+def validate_command(source: str, jobs: int, backend: str) -> None:
     """Run the oracle of every instance in SOURCE and check it succeeds with a legal plan and a
     construct score of at least 0.95. Exit 1 if any instance fails."""
+    check_backend(backend)
     configs = load_tasks(source)
     if not configs:
         raise click.ClickException(f"{source}: no instances to validate")
     start = time.perf_counter()
-    rows = list(validate_tasks(configs, jobs=jobs))
+    rows = list(validate_tasks(configs, jobs=jobs, backend=backend))
     elapsed = time.perf_counter() - start
     click.echo(
         table(

@@ -9,7 +9,7 @@ from langgraph.runtime import Runtime
 
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decide import decide
-from cocobench_agents.graphs.nodes import continue_or_end, observe
+from cocobench_agents.graphs.nodes import continue_or_end, observe_next
 from cocobench_agents.graphs.state import TEAM, PlannerState
 from cocobench_agents.prompts import history_line
 
@@ -34,17 +34,16 @@ async def act(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str
     result = tools.land(call, decision=decision)
     team = [*(state.get("history") or {}).get(TEAM, []),
             history_line(call, result.success, result.errorMessage)]
-    return {"pending": None, "history": {TEAM: team}}
+    return {"pending": None, "history": {TEAM: team},
+            **observe_next(runtime.context, state)}
 
 
 def build_centralized() -> StateGraph:
-    """observe → choose → act → (observe | END)."""
+    """choose → act (land, then observe) → (choose | END)."""
     graph = StateGraph(PlannerState, context_schema=PlannerContext)
-    graph.add_node("observe", observe)
     graph.add_node("choose", choose)
     graph.add_node("act", act)
-    graph.add_edge(START, "observe")
-    graph.add_conditional_edges("observe", continue_or_end("choose"), ["choose", END])
+    graph.add_edge(START, "choose")
     graph.add_edge("choose", "act")
-    graph.add_conditional_edges("act", continue_or_end("observe"), ["observe", END])
+    graph.add_conditional_edges("act", continue_or_end("choose"), ["choose", END])
     return graph

@@ -13,7 +13,7 @@ from langgraph.types import Send
 
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decide import decide
-from cocobench_agents.graphs.nodes import continue_or_end, land_round, observe
+from cocobench_agents.graphs.nodes import land_round
 from cocobench_agents.graphs.state import PlannerState
 
 POLICY = "distributed_vlm"
@@ -45,19 +45,17 @@ def make_decide_agent(broadcast: bool):
 
 
 def build_decentralized(broadcast: bool = False) -> StateGraph:
-    """observe → decide_agent × N (parallel) → land_round → (observe | END)."""
+    """decide_agent × N (parallel) → land_round (land, then observe) → (next round | END)."""
     graph = StateGraph(PlannerState, context_schema=PlannerContext)
     add_round(graph, broadcast=broadcast)
-    graph.add_edge(START, "observe")
-    graph.add_conditional_edges("observe", fan_out, ["decide_agent", END])
+    graph.add_conditional_edges(START, fan_out, ["decide_agent", END])
+    graph.add_conditional_edges("land_round", fan_out, ["decide_agent", END])
     return graph
 
 
 def add_round(graph: StateGraph, *, broadcast: bool) -> None:
-    """The observe / decide_agent / land_round nodes; the caller wires what follows observe
-    (a strategy may add a step before the fan-out)."""
-    graph.add_node("observe", observe)
+    """The decide_agent and land_round nodes; the caller wires what starts a round (a
+    strategy may add a step before the fan-out)."""
     graph.add_node("decide_agent", make_decide_agent(broadcast))
     graph.add_node("land_round", land_round)
     graph.add_edge("decide_agent", "land_round")
-    graph.add_conditional_edges("land_round", continue_or_end("observe"), ["observe", END])

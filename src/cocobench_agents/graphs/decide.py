@@ -32,7 +32,7 @@ async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
     if not menu:
         return stop_decision(policy=policy, model=client.name, agent=agent,
                              step_index=tools.step_index, status="no_actions")
-    request = ModelRequest(prompt=prompt, images=images, menu=tools.menu_options(menu),
+    request = ModelRequest(prompt=prompt, images=images, menu=tools.menu_options(agent),
                            agent=agent, sample_index=ctx.sample_index)
     started = time.perf_counter()
     try:

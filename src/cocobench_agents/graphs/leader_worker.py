@@ -69,14 +69,14 @@ async def remember_team(state: PlannerState, runtime: Runtime[PlannerContext]
 
 
 def build_leader_worker() -> StateGraph:
-    """observe → lead → decide_agent × N → land_round → (observe | END)."""
+    """team_history → lead → decide_agent × N → land_round (land, observe) → (… | END)."""
     graph = StateGraph(PlannerState, context_schema=PlannerContext)
     add_round(graph, broadcast=True)
     graph.add_node("team_history", remember_team)
     graph.add_node("lead", lead)
-    graph.add_edge(START, "observe")
-    graph.add_conditional_edges("observe", continue_or_end("team_history"),
-                                ["team_history", END])
+    graph.add_edge(START, "team_history")
     graph.add_edge("team_history", "lead")
     graph.add_conditional_edges("lead", fan_out, ["decide_agent", END])
+    graph.add_conditional_edges("land_round", continue_or_end("team_history"),
+                                ["team_history", END])
     return graph

@@ -13,9 +13,12 @@ from cocobench_agents.prompts import history_line
 from cocobench_agents.tools import stop_decision
 
 
-async def observe(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
-    """Stop on the step budget, else take this step's (or round's) snapshot."""
-    ctx = runtime.context
+def observe_next(ctx: PlannerContext, state: PlannerState) -> dict[str, Any]:
+    """After landing: stop on the step budget, else take the next step's (or round's) snapshot.
+
+    Called at the end of the landing nodes rather than as a node of its own: every superstep
+    costs LangGraph overhead, and the first snapshot is taken when the episode starts.
+    """
     if ctx.budget_spent():
         ctx.tools.stop(stop_decision(policy="harness", model=None, agent=None,
                                      step_index=ctx.tools.step_index, status="max_steps"))
@@ -59,7 +62,7 @@ async def land_round(state: PlannerState, runtime: Runtime[PlannerContext]) -> d
             posted.append({"round": round_index, "agent": d["agent"], "text": d["message"]})
     tools.episode.post_messages(posted)
     return {"pending": None, "history": history,
-            "messages": [*(state.get("messages") or []), *posted]}
+            "messages": [*(state.get("messages") or []), *posted], **observe_next(ctx, state)}
 
 
 def continue_or_end(next_node: str):

@@ -8,7 +8,7 @@ from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
 
 from cocobench_agents.graphs.context import PlannerContext
-from cocobench_agents.graphs.nodes import continue_or_end, observe
+from cocobench_agents.graphs.nodes import continue_or_end, observe_next
 from cocobench_agents.graphs.state import PlannerState
 from cocobench_agents.tools import stop_decision
 
@@ -27,15 +27,14 @@ async def follow_plan(state: PlannerState, runtime: Runtime[PlannerContext]) -> 
                                      step_index=ctx.tools.step_index, status="done"))
         return {"terminal_reason": "done"}
     ctx.extra["last_result"] = ctx.tools.land(call)
-    return {}
+    return observe_next(ctx, state)
 
 
 def build_oracle() -> StateGraph:
-    """observe → follow_plan → (observe | END)."""
+    """follow_plan (land, then observe) → (follow_plan | END)."""
     graph = StateGraph(PlannerState, context_schema=PlannerContext)
-    graph.add_node("observe", observe)
     graph.add_node("follow_plan", follow_plan)
-    graph.add_edge(START, "observe")
-    graph.add_conditional_edges("observe", continue_or_end("follow_plan"), ["follow_plan", END])
-    graph.add_conditional_edges("follow_plan", continue_or_end("observe"), ["observe", END])
+    graph.add_edge(START, "follow_plan")
+    graph.add_conditional_edges("follow_plan", continue_or_end("follow_plan"),
+                                ["follow_plan", END])
     return graph

@@ -43,10 +43,13 @@ class RunFolder:
         self.path.mkdir(parents=True, exist_ok=True)
         write_json_atomic(self.path / RUN_FILE, run_record)
 
-    def open_for_resume(self) -> dict[str, Any]:
-        """The recorded run; a torn last result line (from a kill) is cut off."""
+    def open_for_resume(self) -> dict[str, Any] | None:
+        """The recorded run (None if the folder holds none yet); a torn last result line
+        (from a kill) is cut off."""
         if not (self.path / RUN_FILE).exists():
-            raise RunFolderError(f"{self.path} has no {RUN_FILE}: nothing to resume")
+            if self.results_path.exists():
+                raise RunFolderError(f"{self.path} has results but no {RUN_FILE}")
+            return None
         self._drop_torn_tail()
         return self.run_record()
 

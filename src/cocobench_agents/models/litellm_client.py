@@ -23,6 +23,7 @@ from .secrets import redact
 from .settings import ModelSettings
 
 _MAX_ERROR_CHARS = 600  # provider error bodies can be long; a record needs the gist
+_BACKSTOP_GRACE_S = 30.0
 
 
 @functools.cache
@@ -46,6 +47,11 @@ class LiteLLMClient:
     ``timeout_s × n``; client errors fail fast. Every failure ends as a `ModelError` whose
     message never contains a key. LiteLLM's own retries and cache are not used (its cache is
     broken on hits in 1.106).
+
+    A reply's `latency_s` runs from the first attempt to the answer (retries and backoff
+    included, queueing for the concurrency limit not); its tokens and cost add up every
+    attempt that got an answer (empty ones too). A cache hit returns the stored reply as it
+    was first obtained, with ``cached=True``.
     """
 
     def __init__(
@@ -171,7 +177,9 @@ class LiteLLMClient:
         if api_key:
             kwargs["api_key"] = api_key
         # A backstop in case a provider ignores `timeout` (a hung stream must not hang a run).
-        backstop = timeout + max(1.0, 0.1 * timeout)
+        # Generous: it also counts LiteLLM's own set-up, seconds on a first call on a busy
+        # machine, which must not turn into a spurious timeout.
+        backstop = timeout + _BACKSTOP_GRACE_S
         return await asyncio.wait_for(litellm.acompletion(**kwargs), backstop)
 
     def _wait(self, state: RetryCallState) -> float:

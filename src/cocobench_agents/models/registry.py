@@ -125,7 +125,7 @@ class ModelPool:
                 spec,
                 "unknown model: LiteLLM cannot tell its provider; write provider/model "
                 "(e.g. openai/gpt-4o, anthropic/claude-sonnet-4-5, openai/NAME with an "
-                f"api_base for an OpenAI-compatible server) or use a {_BUILTIN_USAGE}",
+                f"api_base for an OpenAI-compatible server), or one of the {_BUILTIN_USAGE}",
             ) from None
         if s.api_key_env:
             if not os.environ.get(s.api_key_env):

@@ -6,9 +6,9 @@ duplicate episodes) and writes Markdown and CSV tables, PNG plots (with matplotl
 """
 
 from cocobench_agents.report.build import ReportSummary, build_report, compute_tables
-from cocobench_agents.report.load import NotARunFolder, ReportData, load_runs
+from cocobench_agents.report.load import NotARunFolder, ReportData, ReportError, load_runs
 from cocobench_agents.report.stats import Bootstrap, Estimate
 from cocobench_agents.report.table import Column, Table
 
-__all__ = ["Bootstrap", "Column", "Estimate", "NotARunFolder", "ReportData", "ReportSummary",
-           "Table", "build_report", "compute_tables", "load_runs"]
+__all__ = ["Bootstrap", "Column", "Estimate", "NotARunFolder", "ReportData", "ReportError",
+           "ReportSummary", "Table", "build_report", "compute_tables", "load_runs"]

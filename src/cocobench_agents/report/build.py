@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from cocobench_agents.report import diagnostics, tables
-from cocobench_agents.report.load import ReportData, load_runs
+from cocobench_agents.report.load import ReportData, ReportError, load_runs
 from cocobench_agents.report.render import PlotEntry, index_markdown, to_csv, to_markdown
 from cocobench_agents.report.stats import Bootstrap
 from cocobench_agents.report.table import Table
@@ -48,18 +48,29 @@ def compute_tables(data: ReportData, boot: Bootstrap | None = None) -> list[Tabl
     return [make(ctx) for make in TABLES]
 
 
-def plot_condition(data: ReportData) -> str | None:
-    """The condition per-condition figures show: C0_image, else the first one."""
+def plot_condition(data: ReportData, wanted: str | None = None) -> str | None:
+    """The condition per-condition figures show: `wanted`, else C0_image, else the first."""
+    if wanted is not None:
+        if wanted not in data.conditions:
+            raise ReportError(f"--plot-condition {wanted}: no episodes under it (conditions: "
+                                f"{', '.join(data.conditions) or 'none'})")
+        return wanted
     if PRIMARY_CONDITION in data.conditions:
         return PRIMARY_CONDITION
     return data.conditions[0] if data.conditions else None
 
 
 def build_report(runs: Sequence[str | Path], out: str | Path, *,
-                 boot: Bootstrap | None = None, plots: bool = True) -> ReportSummary:
-    """Read the run folders (merged, later runs winning) and write the report into `out`."""
+                 boot: Bootstrap | None = None, plots: bool = True,
+                 condition: str | None = None) -> ReportSummary:
+    """Read the run folders (merged, later runs winning) and write the report into `out`.
+
+    `condition` is the one per-condition figures show (default C0_image, else the first).
+    Plots are skipped, with a note in the summary and index, when matplotlib is missing.
+    """
     boot = boot or Bootstrap()
     data = load_runs(list(runs))
+    shown = plot_condition(data, condition)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     made = compute_tables(data, boot)
@@ -67,28 +78,27 @@ def build_report(runs: Sequence[str | Path], out: str | Path, *,
     for table in made:
         files.append(_write(out / f"{table.name}.md", to_markdown(table)))
         files.append(_write(out / f"{table.name}.csv", to_csv(table)))
-    condition = plot_condition(data)
     written: list[PlotEntry] = []
     note = None
     if not plots:
         note = "Plots were not requested (--no-plots)."
-    elif condition is None:
+    elif shown is None:
         note = "No episodes, so no plots."
     else:
         from cocobench_agents.report.plots import PlotsUnavailable, write_plots
 
         try:
-            written = write_plots(made, out, condition)
+            written = write_plots(made, out, shown)
         except PlotsUnavailable as exc:
             note = str(exc)
         else:
             if written:
-                note = f"Per-condition figures show {condition}."
+                note = f"Per-condition figures show {shown}."
     files += [out / p.file for p in written]
     files.insert(0, _write(out / "index.md", index_markdown(data, made, written, boot, note)))
     return ReportSummary(out=out, files=files, tables=made, plots=written, plot_note=note,
                          episodes=len(data.episodes), models=list(data.models),
-                         conditions=list(data.conditions), plot_condition=condition)
+                         conditions=list(data.conditions), plot_condition=shown)
 
 
 def _write(path: Path, text: str) -> Path:

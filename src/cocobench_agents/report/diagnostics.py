@@ -6,11 +6,9 @@ from __future__ import annotations
 from benchmark_adapter.metrics import FAILURE_KINDS
 from cocobench_agents.report.load import DIMENSIONS, INFRA_KIND, UNRECORDED_KIND
 from cocobench_agents.report.stats import (
-    Estimate,
-    clean,
+    correlation_matrix,
     mean_ci,
     paired_diff_ci,
-    pearson_ci,
     total,
 )
 from cocobench_agents.report.table import Column, Table
@@ -142,22 +140,9 @@ def construct_correlation(ctx: Ctx) -> Table:
         mask = ctx.ep.mask(model=None if block == POOLED else block)
         if not mask.any():
             continue
-        matrix = {}
-        for i in range(len(DIMENSIONS)):
-            matrix[i, i] = self_correlation(scores[i][mask])
-            for j in range(i + 1, len(DIMENSIONS)):
-                est = pearson_ci(scores[i][mask], scores[j][mask], ctx.boot)
-                matrix[i, j] = matrix[j, i] = est
-        for i, d in enumerate(DIMENSIONS):
-            table.rows.append([block, d, *(matrix[i, j] for j in range(len(DIMENSIONS)))])
+        matrix = correlation_matrix([s[mask] for s in scores], ctx.boot)
+        for d, row in zip(DIMENSIONS, matrix):
+            table.rows.append([block, d, *row])
     return table
 
 
-
-def self_correlation(scores) -> Estimate:
-    """The diagonal: r = 1 exactly (no resampling needed), NA like any pair when the score
-    has fewer than 3 values or is constant."""
-    x = clean(scores)
-    if x.size < 3 or float(x.max() - x.min()) <= 1e-12:
-        return Estimate(None, None, None, int(x.size))
-    return Estimate(1.0, 1.0, 1.0, int(x.size))

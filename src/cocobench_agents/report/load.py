@@ -46,7 +46,11 @@ _NUMERIC = {
 }
 
 
-class NotARunFolder(RunFolderError):
+class ReportError(RunFolderError):
+    """A report that cannot be made as asked (a user mistake: one line, exit code 2)."""
+
+
+class NotARunFolder(ReportError):
     """A path given to the report that is not a run folder."""
 
 
@@ -193,6 +197,8 @@ def _read_run(path: Path) -> tuple[RunInfo, dict[tuple, dict[str, Any]]]:
             record = folder.run_record()
         except (OSError, json.JSONDecodeError) as exc:
             raise NotARunFolder(f"{path / RUN_FILE}: unreadable ({exc})") from None
+        if not isinstance(record, dict):
+            raise NotARunFolder(f"{path / RUN_FILE}: not a run record (a JSON object)")
     records: dict[tuple, dict[str, Any]] = {}
     lines = 0
     for line in folder.results():

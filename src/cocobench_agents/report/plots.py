@@ -21,7 +21,7 @@ from cocobench_agents.report.table import Table
 DPI = 120
 GROUP_LABELS = ("Overall", *DIMENSIONS)
 INSTALL_HINT = ("matplotlib is not installed, so no plots were written: "
-                "pip install matplotlib (or pip install 'cocobench-agents[report]')")
+                "pip install matplotlib")
 METADATA = {"Software": None}
 
 
@@ -58,12 +58,20 @@ def _bars(ax: Any, labels: Sequence[str], series: Sequence[tuple[str, Sequence[A
     count = max(1, len(series))
     width = 0.8 / count
     colors = _colors(count)
+    err_x, err_y, err_lo, err_hi = [], [], [], []
     for k, (name, cells) in enumerate(series):
         vals = [_value(c, scale) for c in cells]
         xs = [i - 0.4 + width * (k + 0.5) for i in range(len(labels))]
-        ax.bar(xs, [v[0] for v in vals], width, label=name, color=colors[k],
-               yerr=[[v[1] for v in vals], [v[2] for v in vals]], capsize=2,
-               error_kw={"linewidth": 0.8})
+        ax.bar(xs, [v[0] for v in vals], width, label=name, color=colors[k])
+        for x, (v, minus, plus) in zip(xs, vals):
+            if not math.isnan(v):
+                err_x.append(x)
+                err_y.append(v)
+                err_lo.append(minus)
+                err_hi.append(plus)
+    if err_x:  # one call for all error bars: much faster to draw than one per series
+        ax.errorbar(err_x, err_y, yerr=[err_lo, err_hi], fmt="none", ecolor="black",
+                    elinewidth=0.8, capsize=min(2.0, 60.0 / max(1, len(err_x))))
     ax.set_xticks(range(len(labels)))
     ax.set_xticklabels(labels)
     ax.set_ylabel(ylabel)
@@ -100,7 +108,7 @@ def _save(fig: Any, path: Path) -> None:
 
 def _sr_cs_figure(path: Path, title: str, series: list[tuple[str, dict[str, Any]]],
                   delta: bool) -> None:
-    fig, axes = _figure(11, 4.2, 2)
+    fig, axes = _figure(min(24.0, 9.0 + 0.4 * len(series)), 4.2, 2)
     for ax, metric, (ylabel, scale) in zip(
             axes, ("sr", "cs"), ((("SR change (pp)" if delta else "SR (%)"), 100.0),
                                  (("CS change" if delta else "CS"), 1.0))):
@@ -221,12 +229,13 @@ def correlation(tables: dict[str, Table], path: Path, condition: str) -> bool:
     fig = Figure(figsize=(4.0 * ncols + 0.8, 3.6 * nrows), dpi=DPI)
     grid = fig.subplots(nrows, ncols, squeeze=False)
     image = None
+    annotate = len(blocks) <= 6  # the values are in the table; many labels are slow to draw
     for index, block in enumerate(blocks):
         ax = grid[index // ncols][index % ncols]
         rows = [r for r in table.records() if r["model"] == block]
         matrix = [[_value(r.get(d.lower()))[0] for d in DIMENSIONS] for r in rows]
         image = ax.imshow(matrix, vmin=-1, vmax=1, cmap="RdBu_r")
-        for i, r in enumerate(rows):
+        for i, r in enumerate(rows if annotate else []):
             for j, d in enumerate(DIMENSIONS):
                 est = r.get(d.lower())
                 if est is None or est.na:

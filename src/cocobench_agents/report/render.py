@@ -1,7 +1,7 @@
 """Writing tables as Markdown and CSV, and the report's `index.md`.
 
 Markdown shows an estimate as `41.7 [33.3, 50.0]` (rates in percent, scores 0-1, a difference
-with its sign); CSV gives the same numbers, unrounded to more decimals, in separate columns
+with its sign); CSV gives the same numbers, rounded to more decimals, in separate columns
 `key`, `key_lo`, `key_hi`, `key_n`. NA is `NA` in Markdown and an empty field in CSV. Output is
 byte-for-byte deterministic (LF line ends, no timestamps).
 """
@@ -154,7 +154,7 @@ def index_markdown(data: ReportData, tables: Sequence[Table], plots: Sequence[Pl
                      "later run's result is used.")
     lines += [f"* Intervals: {boot.confidence:.0%} percentile bootstrap over episodes, "
               f"{boot.resamples} resamples, seed {boot.seed}.", "", "## Runs", ""]
-    lines += _md_table(["Run", "Created", "Models", "Conditions", "Tasks", "Episodes",
+    lines += _md_table(["Run", "Created", "Models", "Conditions", "Source", "Episodes",
                         "Status", "Infra errors", "Notes"], [_run_row(r) for r in data.runs])
     lines += ["", "## Tables", ""]
     for t in tables:

@@ -14,6 +14,7 @@ O(levels) instead of O(n) per resample; other values are resampled by index in c
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from collections.abc import Sequence
@@ -25,6 +26,7 @@ DEFAULT_RESAMPLES = 2000
 DEFAULT_SEED = 20240601
 DEFAULT_CONFIDENCE = 0.95
 _CHUNK_ELEMENTS = 2_000_000  # resampled values held in memory at once
+_CACHED_ELEMENTS = 500_000  # index matrices up to this size are reused (see _index_matrix)
 _LOCAL = threading.local()  # one reusable generator per thread, reset for every estimate
 
 
@@ -123,13 +125,16 @@ def mean_ci(values: Sequence[float] | np.ndarray, boot: Bootstrap | None = None)
 
 def _resampled_means(x: np.ndarray, levels: np.ndarray, counts: np.ndarray,
                      boot: Bootstrap) -> np.ndarray:
-    n, rng = x.size, boot.rng()
+    n = x.size
     if levels.size == 2:
-        hits = rng.binomial(n, counts[1] / n, size=boot.resamples)
+        hits = boot.rng().binomial(n, counts[1] / n, size=boot.resamples)
         return (levels[0] * (n - hits) + levels[1] * hits) / n
     if levels.size * 4 <= n:
-        draws = rng.multinomial(n, counts / n, size=boot.resamples)
+        draws = boot.rng().multinomial(n, counts / n, size=boot.resamples)
         return draws @ levels / n
+    if boot.resamples * n <= _CACHED_ELEMENTS:
+        return x[_index_matrix(boot.seed, boot.resamples, n)].mean(axis=1)
+    rng = boot.rng()
     out = np.empty(boot.resamples)
     step = max(1, _CHUNK_ELEMENTS // n)
     for start in range(0, boot.resamples, step):
@@ -137,6 +142,15 @@ def _resampled_means(x: np.ndarray, levels: np.ndarray, counts: np.ndarray,
         idx = rng.randint(0, n, size=(stop - start, n), dtype=np.int32)
         out[start:stop] = x[idx].mean(axis=1)
     return out
+
+
+@functools.lru_cache(maxsize=32)
+def _index_matrix(seed: int, resamples: int, n: int) -> np.ndarray:
+    """The resample indices a fresh generator draws for n values (the same for every
+    estimate over n values, so they are kept for the next one)."""
+    idx = Bootstrap(resamples, seed).rng().randint(0, n, size=(resamples, n), dtype=np.int32)
+    idx.setflags(write=False)
+    return idx
 
 
 def paired_diff_ci(a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndarray,
@@ -149,32 +163,86 @@ def paired_diff_ci(a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndar
 
 def pearson_ci(x: Sequence[float] | np.ndarray, y: Sequence[float] | np.ndarray,
                boot: Bootstrap | None = None) -> Estimate:
-    """Pearson correlation over the pairs where both are present, bootstrapping pairs.
+    """Pearson correlation over the episodes where both values are present (see
+    `correlation_matrix`)."""
+    return correlation_matrix([x, y], boot)[0][1]
 
-    NA with fewer than 3 pairs or when either variable is constant; resamples in which a
-    variable is constant are left out of the interval.
+
+def correlation_matrix(columns: Sequence[Sequence[float] | np.ndarray],
+                       boot: Bootstrap | None = None) -> list[list[Estimate]]:
+    """Pairwise Pearson correlations of equally long columns (one value per episode, NaN for
+    missing), each pair over the episodes where both are present (n = those episodes).
+
+    Intervals resample episodes: each resample draws n_total episodes with replacement once
+    for all pairs and recomputes every r over the drawn episodes where both values are
+    present. Resample weights times per-episode moments give every pair's sums in one matrix
+    product. NA (value None) with fewer than 3 pairs or a constant variable; resamples in
+    which r is undefined are left out of the interval. The diagonal is exactly 1.
     """
     boot = boot or Bootstrap()
-    x = np.asarray(x, dtype=np.float64).ravel()
-    y = np.asarray(y, dtype=np.float64).ravel()
-    keep = ~(np.isnan(x) | np.isnan(y))
-    x, y = x[keep], y[keep]
-    n = x.size
-    r = _pearson(x, y)
-    if n < 3 or r is None:
-        return Estimate(None, None, None, n)
+    data = np.column_stack([np.asarray(c, dtype=np.float64).ravel() for c in columns])
+    k = data.shape[1]
+    present = ~np.isnan(data)
+    filled = np.where(present, data, 0.0)
+    out = [[NA for _ in range(k)] for _ in range(k)]
+    features, valid = [], []
+    for i in range(k):
+        for j in range(i, k):
+            both = present[:, i] & present[:, j]
+            n = int(both.sum())
+            r = _pearson(data[both, i], data[both, j]) if n >= 3 else None
+            if i == j:
+                out[i][i] = Estimate(None if r is None else 1.0, None if r is None else 1.0,
+                                     None if r is None else 1.0, n)
+                continue
+            out[i][j] = out[j][i] = Estimate(r, None if r is None else r,
+                                             None if r is None else r, n)
+            if r is not None:
+                m = both.astype(np.float64)
+                x, y = filled[:, i] * m, filled[:, j] * m
+                features += [m, x, y, x * x, y * y, x * y]
+                valid.append((i, j))
+    if not valid:
+        return out
+    sums = _resampled_sums(np.column_stack(features), boot)
+    for p, (i, j) in enumerate(valid):
+        rs = _r_from_sums(sums[:, 6 * p:6 * p + 6])
+        rs = rs[~np.isnan(rs)]
+        est = out[i][j]
+        if rs.size:
+            lo, hi = boot.interval(rs)
+            est = Estimate(est.value, min(lo, est.value), max(hi, est.value), est.n)
+        out[i][j] = out[j][i] = est
+    return out
+
+
+def _resampled_sums(features: np.ndarray, boot: Bootstrap) -> np.ndarray:
+    """Column sums of `features` (episodes × f) under each bootstrap resample of episodes."""
+    n = features.shape[0]
     rng = boot.rng()
-    rs = np.empty(boot.resamples)
+    out = np.empty((boot.resamples, features.shape[1]))
     step = max(1, _CHUNK_ELEMENTS // n)
     for start in range(0, boot.resamples, step):
         stop = min(boot.resamples, start + step)
-        idx = rng.randint(0, n, size=(stop - start, n), dtype=np.int32)
-        rs[start:stop] = _pearson_rows(x[idx], y[idx])
-    rs = rs[~np.isnan(rs)]
-    if rs.size == 0:
-        return Estimate(r, r, r, n)
-    lo, hi = boot.interval(rs)
-    return Estimate(r, min(lo, r), max(hi, r), n)
+        rows = stop - start
+        idx = rng.randint(0, n, size=(rows, n), dtype=np.int32)
+        flat = (idx + (np.arange(rows, dtype=np.int64) * n)[:, None]).ravel()
+        weights = np.bincount(flat, minlength=rows * n).reshape(rows, n)
+        out[start:stop] = weights.astype(np.float64) @ features
+    return out
+
+
+def _r_from_sums(s: np.ndarray) -> np.ndarray:
+    """Pearson r per row from [count, Σx, Σy, Σx², Σy², Σxy] (NaN where undefined)."""
+    w, sx, sy, sxx, syy, sxy = (s[:, c] for c in range(6))
+    vx = w * sxx - sx * sx
+    vy = w * syy - sy * sy
+    cov = w * sxy - sx * sy
+    ok = (w >= 2) & (vx > 1e-12 * np.maximum(w * sxx, 1e-300)) & (
+        vy > 1e-12 * np.maximum(w * syy, 1e-300))
+    r = np.full(s.shape[0], np.nan)
+    r[ok] = np.clip(cov[ok] / np.sqrt(vx[ok] * vy[ok]), -1.0, 1.0)
+    return r
 
 
 def _pearson(x: np.ndarray, y: np.ndarray) -> float | None:
@@ -182,21 +250,9 @@ def _pearson(x: np.ndarray, y: np.ndarray) -> float | None:
         return None
     dx, dy = x - x.mean(), y - y.mean()
     sxx, syy = float(dx @ dx), float(dy @ dy)
-    if sxx <= 1e-24 or syy <= 1e-24:
+    if sxx <= 1e-12 * max(float(x @ x), 1e-300) or syy <= 1e-12 * max(float(y @ y), 1e-300):
         return None
     return float(np.clip((dx @ dy) / math.sqrt(sxx * syy), -1.0, 1.0))
-
-
-def _pearson_rows(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    dx = xs - xs.mean(axis=1, keepdims=True)
-    dy = ys - ys.mean(axis=1, keepdims=True)
-    sxx = np.einsum("ij,ij->i", dx, dx)
-    syy = np.einsum("ij,ij->i", dy, dy)
-    sxy = np.einsum("ij,ij->i", dx, dy)
-    ok = (sxx > 1e-24) & (syy > 1e-24)
-    out = np.full(xs.shape[0], np.nan)
-    out[ok] = np.clip(sxy[ok] / np.sqrt(sxx[ok] * syy[ok]), -1.0, 1.0)
-    return out
 
 
 def total(values: Sequence[float] | np.ndarray) -> float | None:

@@ -155,7 +155,7 @@ def architecture(ctx: Ctx) -> Table:
 def observation(ctx: Ctx) -> Table:
     """SR and CS with images versus blind, pooled over architectures, and the paired
     difference blind - image (paper Figure 4)."""
-    modes = ctx.data.obs_modes()
+    modes = [m for m in ctx.data.obs_modes() if m]  # conditions without a mode are left out
     return _factor_table(
         ctx, name="observation", title="Observation: image vs blind",
         caption="Rows per observation mode pool all architectures. The `blind - image` row "

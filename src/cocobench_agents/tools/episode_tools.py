@@ -45,6 +45,7 @@ class EpisodeTools:
         self.decisions: list[dict[str, Any]] = []
         self.counters = {"planner_steps": 0, "parse_errors": 0, "backend_errors": 0}
         self._stable: dict[str, int] = {}
+        self._views: dict[str | None, _MenuView] = {}
         self.snapshot: Observation | None = None
 
     # -- observation -------------------------------------------------------------------
@@ -69,14 +70,25 @@ class EpisodeTools:
 
     def menu(self, agent: str | None = None) -> list[MenuEntry]:
         """The menu shown to `agent` (all agents' entries for a centralized planner)."""
-        entries = (self.snapshot.action_menu if agent is None
-                   else self.snapshot.menu_for(agent))
-        if not self.stable_ids:
-            return entries
-        # Stable ids: a call keeps the id it was first shown with for the whole episode.
-        return [dataclasses.replace(e, action_id=self._stable.setdefault(e.call,
-                                                                         len(self._stable) + 1))
-                for e in entries]
+        return self._menu_view(agent).entries
+
+    def menu_options(self, agent: str | None = None) -> tuple[MenuOption, ...]:
+        """`agent`'s menu as model clients see it."""
+        return self._menu_view(agent).options
+
+    def _menu_view(self, agent: str | None) -> _MenuView:
+        # The episode hands out the same menu list until the menu changes, so each agent's
+        # view is built once per change rather than once per decision.
+        source = self.snapshot.action_menu
+        view = self._views.get(agent)
+        if view is None or view.source is not source:
+            entries = source if agent is None else [e for e in source if e.agent == agent]
+            if self.stable_ids:  # a call keeps the id it was first shown with
+                entries = [dataclasses.replace(
+                    e, action_id=self._stable.setdefault(e.call, len(self._stable) + 1))
+                    for e in entries]
+            view = self._views[agent] = _MenuView(source, entries, agent is None)
+        return view
 
     def prompt(self, agent: str | None, history: Sequence[str],
                messages: Sequence[Mapping[str, str]] = (), broadcast: bool = False,
@@ -85,8 +97,9 @@ class EpisodeTools:
 
         Images are rendered only in image mode and only for a model that reads them.
         """
-        menu = self.menu(agent)
-        inputs = self._inputs(menu, agent is None, history, messages)
+        view = self._menu_view(agent)
+        menu = view.entries
+        inputs = self._inputs(view, history, messages)
         if agent is None:
             text = render_centralized(self.suite, inputs)
         else:
@@ -96,15 +109,15 @@ class EpisodeTools:
     def leader_prompt(self, history: Sequence[str], with_images: bool = True
                       ) -> tuple[str, tuple[bytes, ...]]:
         """The leader–worker strategy's leader prompt and images (the team view)."""
-        inputs = self._inputs(self.menu(None), True, history, ())
+        inputs = self._inputs(self._menu_view(None), history, ())
         return render_leader(self.suite, inputs), self._images(None) if with_images else ()
 
-    def _inputs(self, menu: Sequence[MenuEntry], centralized: bool, history: Sequence[str],
+    def _inputs(self, view: _MenuView, history: Sequence[str],
                 messages: Sequence[Mapping[str, str]]) -> PromptInputs:
         snap = self.snapshot
         return PromptInputs(
             agents=self.agents, goal_text=snap.goal_text, progress_text=snap.progress_text,
-            hint=self.hint, menu_lines=menu_lines(menu, centralized=centralized),
+            hint=self.hint, menu_lines=view.lines,
             history=history, inventories=snap.inventories, obs_mode=self.obs_mode,
             messages=messages,
         )
@@ -149,6 +162,11 @@ class EpisodeTools:
             write_json_atomic(path, document)
         return document, score_trajectory(document, **identifiers)
 
-    def menu_options(self, menu: Sequence[MenuEntry]) -> tuple[MenuOption, ...]:
-        """The menu as model clients see it."""
-        return tuple(MenuOption(e.action_id, e.skill, e.call) for e in menu)
+
+class _MenuView:
+    """One agent's menu, its lines and the options clients see, built from one menu list."""
+
+    def __init__(self, source: list[MenuEntry], entries: list[MenuEntry], centralized: bool):
+        self.source, self.entries = source, entries
+        self.lines = menu_lines(entries, centralized=centralized)
+        self.options = tuple(MenuOption(e.action_id, e.skill, e.call) for e in entries)

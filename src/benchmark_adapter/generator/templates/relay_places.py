@@ -41,19 +41,18 @@ def _surfaces(
 def relay_places(
     scene: Scene, items: Sequence[SceneObject], rng: random.Random
 ) -> tuple[SceneObject, SceneObject]:
-    """(transfer point, target) for a relay of `items`."""
+    """(transfer point, target) for a relay of `items`: a random target, and a random
+    transfer surface of another type (trying the next target when there is none)."""
     targets = _surfaces(scene, TARGET_TYPES[scene.room], items)
     if not targets:
         raise Ungroundable("no target surface free of the relayed items")
-    target = rng.choice(targets)
-    transfers = [
-        o
-        for o in _surfaces(scene, TRANSFER_TYPES[scene.room], items)
-        if o.id != target.id and o.type != target.type
-    ]
-    if not transfers:
-        raise Ungroundable(f"no transfer surface besides the {target.type}")
-    return rng.choice(transfers), target
+    rng.shuffle(targets)
+    surfaces = _surfaces(scene, TRANSFER_TYPES[scene.room], items)
+    for target in targets:
+        transfers = [o for o in surfaces if o.type != target.type]
+        if transfers:
+            return rng.choice(transfers), target
+    raise Ungroundable(f"no transfer surface of another type than the {targets[0].type}")
 
 
 def _distance(a: SceneObject | tuple[float, float], b: SceneObject) -> float:

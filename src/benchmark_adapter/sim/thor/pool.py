@@ -3,14 +3,16 @@
 Starting Unity takes seconds and a scene reset a fraction of that, so a `ThorController`
 leases a started ai2thor controller from the process-wide `POOL` and gives it back on
 `stop()`; the next episode with the same run options reconfigures it with a reset (new scene,
-new agentCount). Sessions are shut down at interpreter exit (atexit, and SIGTERM turned into
-a normal exit), on Ctrl-C, and whenever a call into Unity fails.
+new agentCount). Sessions are shut down at interpreter exit (atexit; multiprocessing workers'
+exit finalizers; SIGTERM turned into a normal exit), on Ctrl-C, and whenever a call into Unity
+fails.
 """
 
 from __future__ import annotations
 
 import atexit
 import logging
+import multiprocessing.util
 import os
 import signal
 import threading
@@ -119,6 +121,8 @@ class ControllerPool:
             return
         self._hooked = True
         atexit.register(self.close)
+        # multiprocessing workers leave through os._exit, skipping atexit, but run these.
+        multiprocessing.util.Finalize(None, self.close, exitpriority=10)
         install_sigterm_exit()
 
 

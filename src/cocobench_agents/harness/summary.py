@@ -1,0 +1,45 @@
+"""The closing summary of a run: success and construct scores per model and condition."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+DIMS = ("D1", "D2", "D3", "D4")
+HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DIMS), "legal",
+           "errors")
+
+
+def summary_rows(records: Iterable[dict[str, Any]]) -> list[list[Any]]:
+    """One row per (model, condition): episodes, success rate, mean construct score overall
+    and per dimension (scored episodes only), legal-plan rate, episodes that failed to run."""
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for record in latest(records):
+        groups.setdefault((record["model"], record["condition"]), []).append(record)
+    return [_row(model, condition, rows) for (model, condition), rows in sorted(groups.items())]
+
+
+def latest(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The last line of each episode (a retry supersedes the first attempt)."""
+    by_key = {}
+    for r in records:
+        by_key[(r["model"], r["condition"], r["task_id"], r.get("epoch") or 0)] = r
+    return list(by_key.values())
+
+
+def _row(model: str, condition: str, rows: list[dict[str, Any]]) -> list[Any]:
+    ran = [r for r in rows if not r.get("infra_error")]
+    legal = [r["legal_plan"] for r in ran if r.get("legal_plan") is not None]
+    return [model, condition, len(rows), _rate([r["task_success"] for r in rows]),
+            _mean_construct(ran), *(_mean_construct([r for r in ran if r.get("dim") == d])
+                                   for d in DIMS),
+            _rate(legal), len(rows) - len(ran)]
+
+
+def _mean_construct(rows: list[dict[str, Any]]) -> str:
+    scores = [r["construct_score"] for r in rows if r.get("construct_score") is not None]
+    return f"{sum(scores) / len(scores):.2f} (n={len(scores)})" if scores else "-"
+
+
+def _rate(values: list[Any]) -> str:
+    return f"{100 * sum(values) / len(values):.1f}%" if values else "-"

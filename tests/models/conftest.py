@@ -1,0 +1,67 @@
+"""Fixtures for the model tests: a scripted fake OpenAI server, a fake key, and the real
+llama.cpp server (tests marked ``llm``). Nothing here reaches the internet."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from cocobench_agents.models import LiteLLMClient, ModelSettings
+
+from .fake_openai import FakeOpenAI
+from .llama_server import llama_server  # noqa: F401 - a fixture, re-exported for this folder
+
+FAKE_KEY_ENV = "FAKE_PROVIDER_API_KEY"
+FAKE_KEY = "sk-test-should-not-leak"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # Registered here too so the marker is known even before pyproject.toml lists it.
+    config.addinivalue_line("markers", "llm: needs a real local LLM server (xllamacpp + SmolLM2)")
+
+
+@pytest.fixture(scope="session")
+def fake_server() -> Iterator[FakeOpenAI]:
+    """One fake OpenAI server for the session (tests reprogram it)."""
+    with FakeOpenAI() as server:
+        yield server
+
+
+@pytest.fixture
+def fake(fake_server: FakeOpenAI) -> FakeOpenAI:
+    """The fake server, freshly programmed to answer every request with a plain success."""
+    from .fake_openai import ok
+
+    return fake_server.program(default=ok())
+
+
+@pytest.fixture
+def fake_key(monkeypatch: pytest.MonkeyPatch) -> str:
+    """The fake provider key, set in the environment."""
+    monkeypatch.setenv(FAKE_KEY_ENV, FAKE_KEY)
+    return FAKE_KEY
+
+
+def fast_settings(fake: FakeOpenAI, **overrides: object) -> ModelSettings:
+    """Settings for the fake server with tiny backoffs, so retry tests take milliseconds."""
+    values: dict[str, object] = {
+        "api_base": fake.base_url,
+        "api_key_env": FAKE_KEY_ENV,
+        "timeout_s": 5.0,
+        "max_retries": 2,
+        "backoff_s": 0.001,
+        "backoff_max_s": 0.005,
+    }
+    values.update(overrides)
+    return ModelSettings(**values)  # type: ignore[arg-type]
+
+
+@pytest.fixture
+def make_client(fake: FakeOpenAI, fake_key: str):
+    """A factory: ``make_client(model="openai/fake-model", **settings)`` → `LiteLLMClient`."""
+
+    def make(model: str = "openai/fake-model", **overrides: object) -> LiteLLMClient:
+        return LiteLLMClient(model, fast_settings(fake, **overrides))
+
+    return make

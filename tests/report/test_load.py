@@ -1,0 +1,160 @@
+"""Reading run folders: torn lines, infrastructure failures, retries, merging runs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from cocobench_agents.report import NotARunFolder, build_report, compute_tables, load_runs
+from cocobench_agents.report.render import to_csv
+
+from .helpers import RUN_ORACLE, RUN_SMALL, result_lines, write_run
+
+
+def _tables(*runs: Path) -> dict[str, object]:
+    return {t.name: t for t in compute_tables(load_runs(list(runs)))}
+
+
+def _row(table, **match):
+    row = table.find(**match)
+    assert row is not None, match
+    return row
+
+
+def test_fixture_reads_as_48_episodes() -> None:
+    data = load_runs([RUN_SMALL])
+    assert len(data.episodes) == 48
+    assert data.models == ["greedy", "random:1"]
+    assert data.conditions == ["C0_image", "C0_blind", "D0_image", "D0_blind", "D1_image",
+                               "D1_blind"]
+    assert data.architectures() == ["C0", "D0", "D1"] and data.obs_modes() == ["image", "blind"]
+    run = data.runs[0]
+    assert (run.name, run.lines, run.episodes, run.planned, run.torn_tail) == (
+        "run_small", 48, 48, 48, False)
+
+
+def test_torn_last_line_is_skipped(small_copy: Path, tmp_path: Path) -> None:
+    extra = dict(result_lines(RUN_SMALL)[0], epoch=1, task_success=1)
+    with open(small_copy / "results.jsonl", "a", encoding="utf-8") as f:
+        f.write(json.dumps(extra)[:200])  # a kill in the middle of a write: no newline
+    data = load_runs([small_copy])
+    assert len(data.episodes) == 48 and data.runs[0].torn_tail
+    summary = build_report([small_copy], tmp_path / "out", plots=False)
+    index = (tmp_path / "out" / "index.md").read_text(encoding="utf-8")
+    assert summary.episodes == 48 and "incomplete last line skipped" in index
+    # the tables are those of the intact run
+    assert (tmp_path / "out" / "main_results.csv").read_text(encoding="utf-8") == to_csv(
+        _tables(RUN_SMALL)["main_results"])
+
+
+def _infra_line(base: dict, **changes) -> dict:
+    keys = ("model", "condition", "task_id", "epoch", "cell", "family", "dim",
+            "agent_count", "planner", "obs_mode", "backend", "prompt_suite")
+    line = {k: base[k] for k in keys}
+    line.update({"infra_error": "RuntimeError('simulator crashed')", "task_success": 0,
+                 "legal_plan": 0, "elapsed_s": 0.5}, **changes)
+    return line
+
+
+def test_infra_error_counts_as_a_failure_without_diagnostics(tmp_path: Path) -> None:
+    lines = [line for line in result_lines(RUN_SMALL) if line["model"] == "greedy"]
+    oracle = result_lines(RUN_ORACLE)  # successes, so a failure shows in SR
+    infra = _infra_line(oracle[0], epoch=1)
+    run = write_run(tmp_path / "run", [*lines, *oracle, infra])
+    tables = _tables(run)
+    main = _row(tables["main_results"], model="oracle", condition="OR_image")
+    assert main["n"] == 5 and main["sr"].value == pytest.approx(0.8) and main["sr"].n == 5
+    assert main["cs"].n == 4  # no construct score for the episode that did not run
+    kinds = _row(tables["terminal_states"], model="oracle", condition="OR_image")
+    assert kinds["infra_error"].value == pytest.approx(0.2)
+    assert kinds["success"].value == pytest.approx(0.8)
+    diag = _row(tables["failure_diagnostics"], model="oracle", condition="OR_image")
+    assert diag["failed"] == 1
+    assert diag["progress_fail"].na and diag["dep"].na  # nothing known about its trajectory
+    legal = _row(tables["legality"], model="oracle", condition="OR_image")
+    assert legal["legal"].n == 5 and legal["legal"].value == pytest.approx(0.8)
+    cost = _row(tables["cost"], model="oracle", condition="OR_image")
+    assert cost["elapsed_s"].n == 5 and cost["steps"].n == 4
+    data = load_runs([run])
+    assert data.runs[0].infra_errors == 1
+    build_report([run], tmp_path / "out", plots=False)
+    index = (tmp_path / "out" / "index.md").read_text(encoding="utf-8")
+    assert "1 could not run (infra_error" in index
+
+
+def test_a_later_line_supersedes_an_earlier_one(tmp_path: Path) -> None:
+    oracle = result_lines(RUN_ORACLE)
+    first = _infra_line(oracle[0])
+    run = write_run(tmp_path / "run", [first, *oracle])  # the retry succeeded
+    data = load_runs([run])
+    assert len(data.episodes) == 4 and data.runs[0].superseded == 1
+    assert data.runs[0].infra_errors == 0
+    main = _row(_tables(run)["main_results"], model="oracle")
+    assert main["sr"].value == 1.0
+    # and the other way round: a failed retry replaces a success
+    run2 = write_run(tmp_path / "run2", [*oracle, first])
+    assert _row(_tables(run2)["main_results"], model="oracle")["sr"].value == pytest.approx(0.75)
+
+
+def test_two_runs_side_by_side() -> None:
+    data = load_runs([RUN_SMALL, RUN_ORACLE])
+    assert data.models == ["greedy", "random:1", "oracle"]
+    assert data.conditions[-1] == "OR_image" and len(data.episodes) == 52
+    assert data.superseded_across_runs == 0
+    tables = _tables(RUN_SMALL, RUN_ORACLE)
+    assert [r["model"] for r in tables["main_results"].records()].count("oracle") == 1
+    alone = _tables(RUN_SMALL)
+    for name in ("main_results", "legality", "cost"):  # the first run's rows are unchanged
+        assert to_csv(tables[name]).startswith(to_csv(alone[name]).rstrip("\n"))
+
+
+def test_same_model_in_two_runs_is_merged(tmp_path: Path) -> None:
+    lines = result_lines(RUN_SMALL)
+    a = write_run(tmp_path / "a", lines[:30], RUN_SMALL / "run.json")
+    b = write_run(tmp_path / "b", lines[30:], RUN_SMALL / "run.json")
+    merged, whole = _tables(a, b), _tables(RUN_SMALL)
+    for name, table in whole.items():
+        assert to_csv(merged[name]) == to_csv(table), name
+
+
+def test_later_run_wins_on_duplicate_episodes(tmp_path: Path) -> None:
+    oracle = result_lines(RUN_ORACLE)
+    failed = [dict(line, task_success=0) for line in oracle[:2]]
+    a = write_run(tmp_path / "a", oracle)
+    b = write_run(tmp_path / "b", failed)
+    data = load_runs([a, b])
+    assert len(data.episodes) == 4 and data.superseded_across_runs == 2
+    assert _row(_tables(a, b)["main_results"], model="oracle")["sr"].value == 0.5
+    assert _row(_tables(b, a)["main_results"], model="oracle")["sr"].value == 1.0
+
+
+def test_run_in_progress_without_results(tmp_path: Path) -> None:
+    run = tmp_path / "starting"
+    run.mkdir()
+    (run / "run.json").write_text((RUN_SMALL / "run.json").read_text(encoding="utf-8"),
+                                  encoding="utf-8")
+    summary = build_report([run], tmp_path / "out")
+    assert summary.episodes == 0 and summary.plots == []
+    assert "_No episodes._" in (tmp_path / "out" / "main_results.md").read_text(
+        encoding="utf-8")
+    assert "0/48" in (tmp_path / "out" / "index.md").read_text(encoding="utf-8")
+
+
+def test_run_in_progress_reports_what_is_complete(tmp_path: Path) -> None:
+    lines = result_lines(RUN_SMALL)[:10]
+    run = write_run(tmp_path / "run", lines, RUN_SMALL / "run.json")
+    build_report([run], tmp_path / "out", plots=False)
+    assert "10/48" in (tmp_path / "out" / "index.md").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("make", ["missing", "file", "empty"])
+def test_not_a_run_folder(tmp_path: Path, make: str) -> None:
+    path = tmp_path / "x"
+    if make == "file":
+        path.write_text("hello", encoding="utf-8")
+    elif make == "empty":
+        path.mkdir()
+    with pytest.raises(NotARunFolder, match="x"):
+        load_runs([path])

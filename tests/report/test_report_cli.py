@@ -1,0 +1,65 @@
+"""`cocobench report`: files printed, clear errors with exit code 2, no traceback."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from cocobench_agents.cli.report_cmd import report_command
+
+from .helpers import RUN_ORACLE, RUN_SMALL
+
+
+def invoke(*args: str):
+    result = CliRunner().invoke(report_command, list(args))
+    assert "Traceback" not in result.output
+    return result
+
+
+def test_writes_and_prints_the_files(tmp_path: Path) -> None:
+    out = tmp_path / "rep"
+    result = invoke(str(RUN_SMALL), str(RUN_ORACLE), "--out", str(out), "--no-plots",
+                    "--resamples", "200")
+    assert result.exit_code == 0, result.output
+    printed = [line for line in result.stdout.splitlines() if line.strip()]
+    assert printed[0] == str(out / "index.md")
+    assert str(out / "main_results.md") in printed and str(out / "main_results.csv") in printed
+    assert all(Path(p).exists() for p in printed)
+    assert "52 episodes, 3 model(s), 7 condition(s)" in result.stderr
+    assert "200 resamples" in (out / "index.md").read_text(encoding="utf-8")
+
+
+def test_default_out_is_inside_the_first_run(small_copy: Path) -> None:
+    result = invoke(str(small_copy), "--no-plots")
+    assert result.exit_code == 0, result.output
+    assert (small_copy / "report" / "index.md").exists()
+
+
+@pytest.mark.parametrize("make", ["missing", "file", "empty"])
+def test_not_a_run_folder_is_a_usage_error(tmp_path: Path, make: str) -> None:
+    path = tmp_path / "nope"
+    if make == "file":
+        path.write_text("{}", encoding="utf-8")
+    elif make == "empty":
+        path.mkdir()
+    result = invoke(str(RUN_SMALL), str(path), "--out", str(tmp_path / "rep"))
+    assert result.exit_code == 2
+    assert str(path) in result.output and "run folder" in result.output
+    assert not (tmp_path / "rep").exists()  # checked before anything is written
+
+
+def test_unknown_plot_condition_is_a_usage_error(tmp_path: Path) -> None:
+    result = invoke(str(RUN_SMALL), "--out", str(tmp_path / "rep"), "--plot-condition", "X")
+    assert result.exit_code == 2 and "no episodes under it" in result.output
+
+
+def test_registered_in_the_cocobench_command(capsys, tmp_path: Path) -> None:
+    from cocobench_agents.cli import cli, main
+
+    if "report" not in cli.commands:
+        pytest.skip("`report` is not registered in cocobench_agents.cli yet")
+    assert main(["report", str(tmp_path / "missing")]) == 2
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out + err and "no such run folder" in err

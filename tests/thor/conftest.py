@@ -1,0 +1,79 @@
+"""Fixtures for the AI2-THOR backend tests: a private controller pool and the fake Unity.
+
+Nothing here starts Unity or downloads a build. Tests that drive ai2thor's Python code skip
+(with the reason) when ai2thor is not installed; CI installs it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from benchmark_adapter.sim.thor import ThorController, ThorOptions
+from benchmark_adapter.sim.thor.pool import ControllerPool
+from benchmark_adapter.tasks import TaskConfig, load_task
+
+
+def _importable(module: str) -> bool:
+    try:
+        __import__(module)
+    except ImportError:
+        return False
+    return True
+
+
+HAS_AI2THOR = _importable("ai2thor")
+needs_ai2thor = pytest.mark.skipif(
+    not HAS_AI2THOR,
+    reason="ai2thor is not installed (pip install 'cocobench-agents[thor]'); these tests drive "
+    "its Python Controller/Event code over a fake server",
+)
+
+# The real configs live beside the repository: /work/shared/cocobench-data next to /work/main.
+TASKS = Path(__file__).resolve().parents[2].parent / "shared" / "cocobench-data" / "tasks"
+SHARED_FILES = sorted(TASKS.glob("*.json")) if TASKS.is_dir() else []
+needs_data = pytest.mark.skipif(
+    not SHARED_FILES, reason=f"shared CoCoBench task configs not found at {TASKS}"
+)
+# A small two-agent config used by the contract tests.
+SMALL = "A_D1__FloorPlan1__seed0.json"
+
+
+@pytest.fixture
+def pool() -> Iterator[ControllerPool]:
+    """A private pool without atexit/SIGTERM hooks, closed after the test."""
+    p = ControllerPool(install_exit_hooks=False)
+    yield p
+    p.close()
+
+
+@pytest.fixture
+def library():
+    """The fake Unity's scene library, holding every shared config's scene."""
+    from .fake_unity import SceneLibrary
+
+    lib = SceneLibrary()
+    for path in SHARED_FILES:
+        lib.add(load_task(path))
+    return lib
+
+
+@pytest.fixture
+def make_thor(pool, library) -> Callable[..., ThorController]:
+    """`make_thor(config, **options)`: a ThorController over the fake Unity."""
+    from .fake_unity import fake_factory
+
+    factory = fake_factory(library)
+
+    def make(config: TaskConfig, **options) -> ThorController:
+        library.add(config)
+        return ThorController(config, ThorOptions(**options), factory=factory, pool=pool)
+
+    return make
+
+
+def shared_config(name: str = SMALL) -> TaskConfig:
+    """One of the shared configs by file name."""
+    return load_task(TASKS / name)
