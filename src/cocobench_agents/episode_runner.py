@@ -115,4 +115,5 @@ async def _invoke(spec: EpisodeSpec, context: PlannerContext, steps: int) -> Non
         # A fresh thread per episode; each landed step takes a few supersteps.
         config={"recursion_limit": 6 * steps + 50,
                 "configurable": {"thread_id": uuid.uuid4().hex}},
+        stream_mode="updates",  # nothing reads the states in between: don't snapshot them
     )

@@ -18,6 +18,9 @@ class NativeSession:
 
     def act(self, action: str, **kwargs: Any) -> Metadata:
         """Run `action` as this agent; return the acting agent's metadata after it."""
+        # Let go of the previous snapshot first: a backend may have to freeze (build) every
+        # snapshot still held before it changes the world.
+        self.metadata = ()
         self.metadata = self.controller.step(action, agentId=self.agent, **kwargs)
         own = self.metadata[self.agent]
         self.result.native_trace.append(

@@ -1,0 +1,139 @@
+"""Harness performance: per-decision overhead, throughput against a 200 ms model server, and
+memory over a full-suite run.
+
+Prints medians and ratios:
+1. overhead per planner decision (graph, prompt, parse, simulator step, recording, scoring)
+   with the zero-latency `greedy` built-in, C0 and D1 (aim: median <= 2 ms);
+2. N episodes at --jobs 64 through LiteLLM against a local OpenAI-compatible server (a separate
+   process) that answers every call after a fixed 200 ms: wall time vs the ideal
+   (total model time / 64) (aim: <= 1.25x);
+3. peak RSS of a whole `cocobench-full` run with `greedy` (aim: < 1 GB).
+
+Usage: python bench/harness.py [--part overhead|throughput|memory|all] [--episodes 240]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+from pathlib import Path
+
+from benchmark_adapter.tasks import load_tasks
+from cocobench_agents.episode_runner import EpisodeSpec, run_episode
+from cocobench_agents.harness import Condition, RunFolder, RunOptions, execute, plan_episodes
+from cocobench_agents.models import ModelPool, ModelSettings
+
+SERVER = textwrap.dedent('''
+    import json, re, sys, time
+    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+    DELAY = float(sys.argv[1])
+    class Handler(BaseHTTPRequestHandler):
+        protocol_version = "HTTP/1.1"
+        def log_message(self, *args): pass
+        def do_POST(self):
+            body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+            prompt = body["messages"][-1]["content"]
+            prompt = prompt if isinstance(prompt, str) else prompt[0]["text"]
+            # Explore forward: a legal action that keeps the episode going to its budget.
+            ids = re.findall(r"^  (\\d+): agent_\\d+: explore forward", prompt, re.M)
+            time.sleep(DELAY)
+            text = f"REASON: look around\\nACTION: {ids[0] if ids else 'DONE'}"
+            data = json.dumps({"id": "x", "object": "chat.completion", "created": 0,
+                "model": "bench", "choices": [{"index": 0, "finish_reason": "stop",
+                "message": {"role": "assistant", "content": text}}],
+                "usage": {"prompt_tokens": 100, "completion_tokens": 10,
+                          "total_tokens": 110}}).encode()
+            self.send_response(200)
+            self.send_header("Content-Type", "application/json")
+            self.send_header("Content-Length", str(len(data)))
+            self.end_headers()
+            self.wfile.write(data)
+    ThreadingHTTPServer.request_queue_size = 256
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+    print(f"http://127.0.0.1:{server.server_address[1]}/v1", flush=True)
+    server.serve_forever()
+''')
+
+
+def overhead(configs) -> None:
+    """Wall time per decision of whole episodes with a zero-latency model."""
+    pool = ModelPool()
+    for planner in ("centralized", "decentralized-broadcast"):
+        per = []
+        for config in configs:
+            spec = EpisodeSpec(config, planner=planner, obs_mode="blind",
+                               models={"*": "greedy"})
+            start = time.perf_counter()
+            document, _ = asyncio.run(run_episode(spec, pool))
+            per.append((time.perf_counter() - start) / len(document["planner_decisions"]))
+        print(f"overhead per decision, {planner:24s} median {statistics.median(per) * 1e3:5.2f} ms"
+              f"  (p90 {sorted(per)[int(0.9 * len(per))] * 1e3:.2f} ms, {len(per)} episodes;"
+              f" aim <= 2 ms)")
+
+
+def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int) -> None:
+    """Wall time of a batch against a slow server, vs total model time / jobs."""
+    server = subprocess.Popen([sys.executable, "-c", SERVER, str(delay)],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        url = server.stdout.readline().strip()
+        tasks = configs[:episodes]
+        planned = plan_episodes(tasks, ["openai/bench"], [Condition("centralized", "blind")], 1,
+                                RunOptions(max_steps=max_steps))
+        settings = ModelSettings(api_base=url, max_concurrency=jobs, timeout_s=30)
+        with tempfile.TemporaryDirectory() as tmp:
+            folder = RunFolder(Path(tmp) / "run")
+            folder.create({"name": "bench"})
+            start = time.perf_counter()
+            asyncio.run(execute(planned, folder, ModelPool(settings), jobs=jobs))
+            wall = time.perf_counter() - start
+            calls = sum(r["usage"]["model_calls"] for r in folder.results())
+        ideal = calls * delay / jobs
+        print(f"throughput: {len(planned)} episodes, {calls} model calls of {delay * 1e3:.0f} ms "
+              f"at --jobs {jobs}: {wall:.1f} s vs ideal {ideal:.1f} s = {wall / ideal:.2f}x "
+              f"(aim <= 1.25x)")
+    finally:
+        server.kill()
+
+
+def memory(suite: str) -> None:
+    """Peak RSS of a whole run, measured in a child process."""
+    with tempfile.TemporaryDirectory() as tmp:
+        command = [sys.executable, "-m", "cocobench_agents.cli", "run", "--suite", suite,
+                   "--model", "greedy", "--out", f"{tmp}/run", "--jobs", "8"]
+        start = time.perf_counter()
+        subprocess.run(command, check=True, capture_output=True)
+        wall = time.perf_counter() - start
+        peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+        lines = len(Path(f"{tmp}/run/results.jsonl").read_text().splitlines())
+    print(f"memory: {lines}-episode {suite} run, peak RSS {peak_mb:.0f} MB (aim < 1024 MB), "
+          f"{wall:.0f} s")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--part", default="all",
+                        choices=["overhead", "throughput", "memory", "all"])
+    parser.add_argument("--episodes", type=int, default=240)
+    parser.add_argument("--jobs", type=int, default=64)
+    parser.add_argument("--delay", type=float, default=0.2)
+    parser.add_argument("--max-steps", type=int, default=10)
+    args = parser.parse_args()
+    configs = load_tasks("cocobench-240")
+    if args.part in ("overhead", "all"):
+        overhead(configs[::4])
+    if args.part in ("throughput", "all"):
+        throughput(configs, args.episodes, args.jobs, args.delay, args.max_steps)
+    if args.part in ("memory", "all"):
+        memory("cocobench-full")
+
+
+if __name__ == "__main__":
+    main()
