@@ -111,7 +111,8 @@ def test_generate_command_writes_and_checks(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     strata = first_strata()[:4]
-    monkeypatch.setattr(generate_cmd, "generate", lambda jobs, backend: run_strata(strata, jobs, backend))
+    monkeypatch.setattr(generate_cmd, "generate",
+                        lambda jobs, backend: run_strata(strata, jobs, backend))
     runner = CliRunner()
     written = runner.invoke(generate_cmd.generate_command, ["--out", str(tmp_path)])
     assert written.exit_code == 0, written.output
