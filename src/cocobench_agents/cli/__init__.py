@@ -2,44 +2,64 @@
 
 from __future__ import annotations
 
+import importlib
 import sys
 
 import click
 
-from benchmark_adapter.sim.thor.errors import ThorUnavailable
-from benchmark_adapter.tasks import TaskConfigError
 from cocobench_agents import __version__
-from cocobench_agents.cli.doctor_cmd import doctor_command
-from cocobench_agents.cli.generate_cmd import generate_command
-from cocobench_agents.cli.list_cmd import list_command
-from cocobench_agents.cli.report_cmd import report_command
-from cocobench_agents.cli.run_cmd import run_command
-from cocobench_agents.cli.score_cmd import score_command
-from cocobench_agents.cli.validate_cmd import validate_command
-from cocobench_agents.graphs import UnknownPlanner
-from cocobench_agents.harness import PlanError, RunFolderError
-from cocobench_agents.models import ModelConfigError
-from cocobench_agents.prompts import PromptSuiteError
 
 USAGE_ERROR = 2
+
+# Subcommands load on use: `cocobench list` must not pay for LangGraph or LiteLLM.
+COMMANDS = {
+    "list": "list_cmd:list_command",
+    "validate": "validate_cmd:validate_command",
+    "score": "score_cmd:score_command",
+    "run": "run_cmd:run_command",
+    "generate": "generate_cmd:generate_command",
+    "report": "report_cmd:report_command",
+    "doctor": "doctor_cmd:doctor_command",
+}
+
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback.
-USER_ERRORS = (TaskConfigError, ModelConfigError, RunFolderError, PlanError, PromptSuiteError,
-               UnknownPlanner, ThorUnavailable)
+# By module and name, so that checking an error imports nothing new.
+USER_ERRORS = {
+    "benchmark_adapter.tasks.errors": "TaskConfigError",
+    "benchmark_adapter.sim.thor.errors": "ThorUnavailable",
+    "cocobench_agents.models.errors": "ModelConfigError",
+    "cocobench_agents.harness.store": "RunFolderError",
+    "cocobench_agents.harness.plan": "PlanError",
+    "cocobench_agents.prompts.suite": "PromptSuiteError",
+    "cocobench_agents.graphs.registry": "UnknownPlanner",
+}
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class LazyGroup(click.Group):
+    """A command group whose subcommands are imported when they are used."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return list(COMMANDS)
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        target = COMMANDS.get(name)
+        if target is None:
+            return None
+        module, attribute = target.split(":")
+        return getattr(importlib.import_module(f"{__name__}.{module}"), attribute)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="cocobench")
 def cli() -> None:
     """Benchmark LLM/VLM planners on CoCoBench's multi-agent coordination tasks."""
 
 
-cli.add_command(list_command)
-cli.add_command(validate_command)
-cli.add_command(score_command)
-cli.add_command(run_command)
-cli.add_command(generate_command)
-cli.add_command(report_command)
-cli.add_command(doctor_command)
+def is_user_error(exc: BaseException) -> bool:
+    """Whether `exc` reports a mistake in the user's input (its module is loaded if it was
+    raised)."""
+    return any(isinstance(exc, getattr(sys.modules[module], name))
+               for module, name in USER_ERRORS.items() if module in sys.modules)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -54,7 +74,9 @@ def main(argv: list[str] | None = None) -> int:
     except click.ClickException as exc:
         exc.show()
         return USAGE_ERROR if exc.exit_code == 2 else exc.exit_code
-    except USER_ERRORS as exc:
+    except Exception as exc:
+        if not is_user_error(exc):
+            raise
         click.echo(f"cocobench: error: {exc}", err=True)
         return USAGE_ERROR
     return code if isinstance(code, int) else 0

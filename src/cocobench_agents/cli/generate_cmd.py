@@ -19,7 +19,7 @@ from benchmark_adapter.generator import (
     write_suite,
 )
 from benchmark_adapter.sim.backends import check_backend
-from cocobench_agents.cli.run_options import backend_option
+from cocobench_agents.cli.run_options import backend_option, process_jobs_option
 from cocobench_agents.cli.tables import table
 
 HEADERS = ("task_type", "cell", "candidates", "kept", *GATES)
@@ -40,14 +40,7 @@ SHOWN_PROBLEMS = 20
     default=None,
     help="Folder to write the suite folders into (default: the package data folder).",
 )
-@click.option(
-    "--jobs",
-    "-j",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    help="Worker processes for the gates (0 = one per core).",
-)
+@process_jobs_option
 @click.option(
     "--check",
     is_flag=True,

@@ -11,6 +11,10 @@ import click
 from benchmark_adapter.sim.backends import BACKENDS
 from cocobench_agents.models import ModelSettings
 
+process_jobs_option = click.option(
+    "--jobs", "-j", type=click.IntRange(min=0), default=1, show_default=True,
+    help="Worker processes (0 = one per core).")
+
 backend_option = click.option(
     "--backend", type=click.Choice(sorted(BACKENDS)), default="embedded", show_default=True,
     help="Simulator: the embedded one, or real AI2-THOR (pip install 'cocobench-agents[thor]').")

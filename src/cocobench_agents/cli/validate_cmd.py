@@ -9,7 +9,7 @@ import click
 from benchmark_adapter.sim.backends import check_backend
 from benchmark_adapter.tasks import load_tasks
 from benchmark_adapter.validation import METRIC_GATE, validate_tasks
-from cocobench_agents.cli.run_options import backend_option
+from cocobench_agents.cli.run_options import backend_option, process_jobs_option
 from cocobench_agents.cli.tables import table
 
 HEADERS = ("task_id", "cell", "agents", "steps", "success", "legal", "construct", "result")
@@ -17,14 +17,7 @@ HEADERS = ("task_id", "cell", "agents", "steps", "success", "legal", "construct"
 
 @click.command("validate")
 @click.argument("source")
-@click.option(
-    "--jobs",
-    "-j",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    help="Worker processes (0 = one per core).",
-)
+@process_jobs_option
 @backend_option
 def validate_command(source: str, jobs: int, backend: str) -> None:
     """Run the oracle of every instance in SOURCE and check it succeeds with a legal plan and a

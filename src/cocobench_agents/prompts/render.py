@@ -25,35 +25,30 @@ class PromptInputs:
 
 def render_centralized(suite: PromptSuite, inputs: PromptInputs) -> str:
     """The centralized planner's prompt (one planner, every agent's menu)."""
-    agents = ", ".join(inputs.agents)
-    state_lines = [f"  {a}: holding={_holding(inputs.inventories.get(a))}" for a in inputs.agents]
-    return suite.template("centralized").format(
-        n=len(inputs.agents), agents=agents,
-        view=suite.template(f"view_{inputs.obs_mode}_centralized").format(agents=agents),
-        goal=inputs.goal_text,
-        progress_section=_progress(suite, inputs),
-        hint=_hint(inputs),
-        menu="\n".join(inputs.menu_lines),
-        history_section=_history(suite, inputs, "centralized"),
-        state=suite.template("state_centralized").format(agent_lines="\n".join(state_lines)),
-    )
+    return suite.template("centralized").format(**_team_fields(suite, inputs))
 
 
 def render_leader(suite: PromptSuite, inputs: PromptInputs) -> str:
     """The leader–worker strategy's leader prompt: one instruction per robot."""
+    reply_format = "\n".join(f"{a}: <instruction>" for a in inputs.agents)
+    return suite.template("leader").format(**_team_fields(suite, inputs),
+                                           reply_format=reply_format)
+
+
+def _team_fields(suite: PromptSuite, inputs: PromptInputs) -> dict[str, object]:
+    """The fields of a prompt that sees the whole team (centralized planner, leader)."""
     agents = ", ".join(inputs.agents)
     state_lines = [f"  {a}: holding={_holding(inputs.inventories.get(a))}" for a in inputs.agents]
-    return suite.template("leader").format(
-        n=len(inputs.agents), agents=agents,
-        view=suite.template(f"view_{inputs.obs_mode}_centralized").format(agents=agents),
-        goal=inputs.goal_text,
-        progress_section=_progress(suite, inputs),
-        hint=_hint(inputs),
-        reply_format="\n".join(f"{a}: <instruction>" for a in inputs.agents),
-        menu="\n".join(inputs.menu_lines),
-        history_section=_history(suite, inputs, "centralized"),
-        state=suite.template("state_centralized").format(agent_lines="\n".join(state_lines)),
-    )
+    return {
+        "n": len(inputs.agents), "agents": agents,
+        "view": suite.template(f"view_{inputs.obs_mode}_centralized").format(agents=agents),
+        "goal": inputs.goal_text,
+        "progress_section": _progress(suite, inputs),
+        "hint": _hint(inputs),
+        "menu": "\n".join(inputs.menu_lines),
+        "history_section": _history(suite, inputs, "centralized"),
+        "state": suite.template("state_centralized").format(agent_lines="\n".join(state_lines)),
+    }
 
 
 def render_distributed(suite: PromptSuite, inputs: PromptInputs, me: str, broadcast: bool
