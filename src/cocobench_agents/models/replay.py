@@ -96,9 +96,14 @@ class ReplaySource:
         matches = [f for task_id, files in index.items() if task_id in parts for f in files]
         if len(matches) > 1:
             # Several runs of one task (conditions, epochs): the folder path must say which.
-            tail = "/".join(parts)
-            narrowed = [f for f in matches if f.parent.as_posix().endswith(tail)]
-            matches = narrowed or matches
+            # The key's leading parts (this run's model) may not be in the recorded path, so
+            # the longest tail of the key that some recorded folder ends with decides.
+            for start in range(len(parts)):
+                tail = "/" + "/".join(parts[start:])
+                narrowed = [f for f in matches if f.parent.as_posix().endswith(tail)]
+                if narrowed:
+                    matches = narrowed
+                    break
         if not matches:
             raise ModelError("other", f"{self.spec}: no recorded trajectory for {episode!r}")
         if len(matches) > 1:

@@ -53,5 +53,7 @@ def stop_decision(*, policy: str, model: str | None, agent: str | None, step_ind
 
 
 def _provider(model: str) -> str:
-    """The backend part of a model string (`openai/gpt-4o` → `openai`; built-ins as is)."""
-    return model.split("/", 1)[0] if "/" in model else model.split(":", 1)[0]
+    """The backend part of a model string: `openai/gpt-4o` → `openai`, `random:3` → `random`,
+    `replay:/runs/a` → `replay`."""
+    head = model.split("/", 1)[0]
+    return head.split(":", 1)[0] if ":" in head else head
