@@ -1,21 +1,27 @@
-"""Batch runs: suite × conditions × models × epochs into a resumable run folder."""
+"""Batch runs: suite × conditions × models × epochs into a resumable run folder.
 
-from cocobench_agents.harness.execute import execute, infra_error_record, run_one
-from cocobench_agents.harness.plan import (
-    Condition,
-    EpisodeKey,
-    PlanError,
-    PlannedEpisode,
-    RunOptions,
-    parse_conditions,
-    plan_episodes,
-)
-from cocobench_agents.harness.progress import Progress, episode_line
-from cocobench_agents.harness.record import pending_episodes, run_record
-from cocobench_agents.harness.store import RunFolder, RunFolderError
+Names load on first use (PEP 562): reading a run folder (reports) must not import the
+planners and LangGraph.
+"""
 
-__all__ = [
-    "Condition", "EpisodeKey", "PlanError", "PlannedEpisode", "Progress", "RunFolder",
-    "RunFolderError", "RunOptions", "episode_line", "execute", "infra_error_record",
-    "parse_conditions", "pending_episodes", "plan_episodes", "run_one", "run_record",
-]
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "execute": "batch", "infra_error_record": "batch", "run_one": "batch",
+    "Condition": "plan", "EpisodeKey": "store", "PlanError": "plan", "PlannedEpisode": "plan",
+    "RunOptions": "plan", "parse_conditions": "plan", "plan_episodes": "plan",
+    "Progress": "progress", "episode_line": "progress",
+    "pending_episodes": "record", "run_record": "record",
+    "RunFolder": "store", "RunFolderError": "store",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), name)

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
-import re
 from dataclasses import dataclass, field
-from typing import Any
 
 from benchmark_adapter.tasks import TaskConfig
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import PLANNERS, planner_spec
+from cocobench_agents.harness.store import EpisodeKey
 
 OBS_MODES = ("image", "blind")
 PAPER_CODES = ("C0", "D0", "D1")  # the paper's architectures, as in run_eval.sh
@@ -54,30 +53,6 @@ def parse_conditions(text: str) -> list[Condition]:
     if not out:
         raise PlanError("no conditions given")
     return out
-
-
-def model_slug(model: str) -> str:
-    """A folder-safe form of a model string."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", model).strip("_") or "model"
-
-
-@dataclass(frozen=True)
-class EpisodeKey:
-    """Identifies one episode of a run."""
-
-    model: str
-    condition: str
-    task_id: str
-    epoch: int = 0
-
-    def folder(self) -> str:
-        """Where its trajectory lives, relative to the run folder."""
-        leaf = self.task_id if self.epoch == 0 else f"{self.task_id}@e{self.epoch}"
-        return f"episodes/{model_slug(self.model)}/{self.condition}/{leaf}"
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"model": self.model, "condition": self.condition, "task_id": self.task_id,
-                "epoch": self.epoch}
 
 
 @dataclass(frozen=True)

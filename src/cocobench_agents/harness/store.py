@@ -10,12 +10,38 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from benchmark_adapter.trajectory import write_json_atomic
-from cocobench_agents.harness.plan import EpisodeKey
+
+
+def model_slug(model: str) -> str:
+    """A folder-safe form of a model string."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", model).strip("_") or "model"
+
+
+@dataclass(frozen=True)
+class EpisodeKey:
+    """Identifies one episode of a run."""
+
+    model: str
+    condition: str
+    task_id: str
+    epoch: int = 0
+
+    def folder(self) -> str:
+        """Where its trajectory lives, relative to the run folder."""
+        leaf = self.task_id if self.epoch == 0 else f"{self.task_id}@e{self.epoch}"
+        return f"episodes/{model_slug(self.model)}/{self.condition}/{leaf}"
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"model": self.model, "condition": self.condition, "task_id": self.task_id,
+                "epoch": self.epoch}
+
 
 RESULTS = "results.jsonl"
 RUN_FILE = "run.json"
