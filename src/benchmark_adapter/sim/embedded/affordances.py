@@ -9,18 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-FLAGS = (
-    "pickupable",
-    "receptacle",
-    "openable",
-    "toggleable",
-    "sliceable",
-    "dirtyable",
-    "canFillWithLiquid",
-    "breakable",
-    "moveable",
-    "cookable",
-)
+from benchmark_adapter.menu import AFFORDANCE_FLAGS
+
+# The flags that put an object in the menu, plus cookable (a state, not a menu affordance).
+FLAGS = (*AFFORDANCE_FLAGS, "cookable")
 
 
 @dataclass(frozen=True)
