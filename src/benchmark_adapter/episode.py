@@ -34,13 +34,6 @@ class Observation:
         """One agent's own menu entries."""
         return [e for e in self.action_menu if e.agent == agent]
 
-    def entry(self, action_id: int, agent: str | None = None) -> MenuEntry | None:
-        """The menu entry with this id (restricted to `agent`'s menu when given)."""
-        for e in self.action_menu:
-            if e.action_id == action_id and (agent is None or e.agent == agent):
-                return e
-        return None
-
 
 class Episode:
     """One task instance on one backend, recording a reference-format trajectory."""

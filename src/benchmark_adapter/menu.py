@@ -156,7 +156,7 @@ def compact(
     allowed_by_agent = {a: set(config.allowed_skills_for(a)) for a in config.agent_ids}
     out = []
     for e in space.entries:
-        allowed = allowed_by_agent.get(e.agent) or set(config.allowed_skills_for(e.agent))
+        allowed = allowed_by_agent[e.agent]
         if allowed and e.skill not in allowed:
             continue
         if not gate.allows(e):

@@ -146,13 +146,6 @@ class TaskConfig(_Open):
         """Object id of an alias; raw ids pass through."""
         return self.init_state.objects.get(alias_or_id, alias_or_id)
 
-    def alias_of(self, object_id: str) -> str | None:
-        """Config alias of an object id, if it is an important object."""
-        for alias, oid in self.init_state.objects.items():
-            if oid == object_id:
-                return alias
-        return None
-
     @property
     def producer_consumer(self) -> dict[str, Any] | None:
         """D4 roles block, if any."""

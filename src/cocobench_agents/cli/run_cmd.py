@@ -113,13 +113,14 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
     tasks = select_tasks(tasks, kw["eval_set"], only_cell=kw["only_cell"],
                          only_family=kw["only_family"], only_dim=kw["only_dim"],
                          task_ids=kw["task_id"], limit=kw["limit"] or 0)
+    agent_models = _agent_models(kw["agent_models"])
     request = {
         "sources": sources, "tasks": tasks, "task_ids": [t.task_id for t in tasks],
-        "models": models, "agent_models": _agent_models(kw["agent_models"]),
+        "models": models, "agent_models": agent_models,
         "conditions": conditions, "epochs": kw["epochs"],
         "options": RunOptions(backend=kw["backend"], prompt_suite=kw["prompt_suite"],
                               max_steps=kw["max_steps"], stable_ids=kw["stable_ids"],
-                              agent_models=_agent_models(kw["agent_models"])),
+                              agent_models=agent_models),
     }
     if record is not None:
         _same_as_recorded(request, record)

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Generator
+from dataclasses import dataclass
 
+from benchmark_adapter.skills import SkillResult
 from cocobench_agents.models.protocol import ModelClient
 from cocobench_agents.tools import EpisodeTools
 
@@ -18,8 +18,8 @@ class PlannerContext:
     clients: dict[str, ModelClient]  # per agent; key "*" is the centralized / leader model
     budget: int | None  # landed steps allowed (None: unbounded)
     sample_index: int = 0
-    oracle_plan: Iterator[str] | None = None  # the oracle planner's live generator
-    extra: dict[str, Any] = field(default_factory=dict)
+    oracle_plan: Generator[str, SkillResult | None, None] | None = None  # the oracle's plan
+    last_result: SkillResult | None = None  # what the oracle's previous call did
 
     def client_for(self, agent: str | None) -> ModelClient:
         """The model that decides for `agent` (None: the team's planner)."""

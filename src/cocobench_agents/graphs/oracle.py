@@ -20,13 +20,13 @@ async def follow_plan(state: PlannerState, runtime: Runtime[PlannerContext]) -> 
     ctx = runtime.context
     plan = ctx.oracle_plan
     try:
-        last = ctx.extra.get("last_result")
+        last = ctx.last_result
         call = next(plan) if last is None else plan.send(last)
     except StopIteration:
         ctx.tools.stop(stop_decision(policy=POLICY, model=None, agent=None,
                                      step_index=ctx.tools.step_index, status="done"))
         return {"terminal_reason": "done"}
-    ctx.extra["last_result"] = ctx.tools.land(call)
+    ctx.last_result = ctx.tools.land(call)
     return observe_next(ctx, state)
 
 
