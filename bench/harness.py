@@ -4,18 +4,21 @@ memory over a full-suite run.
 Prints medians and ratios:
 1. overhead per planner decision (graph, prompt, parse, simulator step, recording, scoring)
    with the zero-latency `greedy` built-in, C0 and D1 (aim: median <= 2 ms);
-2. N episodes at --jobs 64 through LiteLLM against a local OpenAI-compatible server (a separate
-   process) that answers every call after a fixed 200 ms: wall time vs the ideal
-   (total model time / 64) (aim: <= 1.25x);
+2. N episodes (each to its own step budget) at --jobs 64 against a local OpenAI-compatible
+   server (a separate process) that answers every call after a fixed 200 ms: wall time vs
+   the ideal (total model time / 64) (aim: <= 1.25x), for each model transport (LiteLLM, the
+   lean http client) in one process and in worker processes;
 3. peak RSS of a whole `cocobench-full` run with `greedy` (aim: < 1 GB).
 
 Usage: python bench/harness.py [--part overhead|throughput|memory|all] [--episodes 240]
+       [--transport litellm|http]… [--workers N]…
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import os
 import resource
 import statistics
 import subprocess
@@ -27,8 +30,15 @@ from pathlib import Path
 
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
-from cocobench_agents.harness import Condition, RunFolder, RunOptions, execute, plan_episodes
-from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.harness import (
+    Condition,
+    RunFolder,
+    RunOptions,
+    execute,
+    execute_in_workers,
+    plan_episodes,
+)
+from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
 
 SERVER = textwrap.dedent('''
     import json, re, sys, time
@@ -36,6 +46,9 @@ SERVER = textwrap.dedent('''
     DELAY = float(sys.argv[1])
     class Handler(BaseHTTPRequestHandler):
         protocol_version = "HTTP/1.1"
+        # Headers and body go out as two writes: with Nagle on, the body waits for the
+        # client's delayed ACK (40 ms), which would be charged to the harness.
+        disable_nagle_algorithm = True
         def log_message(self, *args): pass
         def do_POST(self):
             body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
@@ -78,7 +91,8 @@ def overhead(configs) -> None:
               f" aim <= 2 ms)")
 
 
-def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int) -> None:
+def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int,
+               transport: str, workers: int) -> None:
     """Wall time of a batch against a slow server, vs total model time / jobs."""
     server = subprocess.Popen([sys.executable, "-c", SERVER, str(delay)],
                               stdout=subprocess.PIPE, text=True)
@@ -87,20 +101,52 @@ def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int) 
         tasks = configs[:episodes]
         planned = plan_episodes(tasks, ["openai/bench"], [Condition("centralized", "blind")], 1,
                                 RunOptions(max_steps=max_steps))
-        settings = ModelSettings(api_base=url, max_concurrency=jobs, timeout_s=30)
+        settings = ModelSettings(api_base=url, max_concurrency=jobs, timeout_s=30,
+                                 transport=transport)
+        pool = ModelPool(settings)
+        pool.validate("openai/bench")  # as `cocobench run` does: imports LiteLLM up front
         with tempfile.TemporaryDirectory() as tmp:
             folder = RunFolder(Path(tmp) / "run")
             folder.create({"name": "bench"})
-            start = time.perf_counter()
-            asyncio.run(execute(planned, folder, ModelPool(settings), jobs=jobs))
-            wall = time.perf_counter() - start
+            start, cpu = time.perf_counter(), _cpu_s()
+            if workers > 1:
+                execute_in_workers(planned, folder, settings, jobs=jobs, workers=workers)
+            else:
+                asyncio.run(_execute_and_close(planned, folder, pool, jobs))
+            wall, cpu = time.perf_counter() - start, _cpu_s() - cpu
             calls = sum(r["usage"]["model_calls"] for r in folder.results())
         ideal = calls * delay / jobs
-        print(f"throughput: {len(planned)} episodes, {calls} model calls of {delay * 1e3:.0f} ms "
-              f"at --jobs {jobs}: {wall:.1f} s vs ideal {ideal:.1f} s = {wall / ideal:.2f}x "
-              f"(aim <= 1.25x)")
+        print(f"throughput, --transport {transport:7s} --workers {workers}: {len(planned)} "
+              f"episodes, {calls} calls of {delay * 1e3:.0f} ms at --jobs {jobs}: {wall:.1f} s "
+              f"vs ideal {ideal:.1f} s = {wall / ideal:.2f}x (aim <= 1.25x); CPU per call: "
+              f"harness {cpu / calls * 1e3:.1f} ms, "
+              f"server {_server_cpu_s(server.pid) / calls * 1e3:.1f} ms")
     finally:
         server.kill()
+
+
+def _cpu_s() -> float:
+    """CPU seconds of this process and its ended worker processes (not the server: it is
+    killed, never waited for, so it is not counted among the children)."""
+    own, children = (resource.getrusage(who) for who in
+                     (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def _server_cpu_s(pid: int) -> float:
+    """CPU seconds the server process has used so far (Linux; 0 elsewhere)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+async def _execute_and_close(planned, folder, pool, jobs) -> None:
+    try:
+        await execute(planned, folder, pool, jobs=jobs)
+    finally:
+        await pool.aclose()
 
 
 def memory(suite: str) -> None:
@@ -124,13 +170,23 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=240)
     parser.add_argument("--jobs", type=int, default=64)
     parser.add_argument("--delay", type=float, default=0.2)
-    parser.add_argument("--max-steps", type=int, default=10)
+    parser.add_argument("--max-steps", type=int, default=None,
+                        help="Cap every episode's step budget (default: each instance's own).")
+    parser.add_argument("--transport", action="append", choices=TRANSPORTS,
+                        help="Model transport(s) to measure (default: both).")
+    parser.add_argument("--workers", action="append", type=int,
+                        help="Worker processes to measure with (default: 1 and 2).")
     args = parser.parse_args()
+    args.transport = args.transport or list(TRANSPORTS)
+    args.workers = args.workers or [1, 2]
     configs = load_tasks("cocobench-240")
     if args.part in ("overhead", "all"):
         overhead(configs[::4])
     if args.part in ("throughput", "all"):
-        throughput(configs, args.episodes, args.jobs, args.delay, args.max_steps)
+        for transport in args.transport:
+            for workers in args.workers:
+                throughput(configs, args.episodes, args.jobs, args.delay, args.max_steps,
+                           transport, workers)
     if args.part in ("memory", "all"):
         memory("cocobench-full")
 

@@ -71,3 +71,38 @@ def test_results_do_not_depend_on_jobs(reference_run, tmp_path):
     done = cocobench(out, "--jobs", "8")
     assert done.returncode == 0, done.stderr
     assert episodes(out) == episodes(reference_run)
+
+
+def test_results_do_not_depend_on_worker_processes(reference_run, tmp_path):
+    out = tmp_path / "workers"
+    done = cocobench(out, "--jobs", "4", "--workers", "2")
+    assert done.returncode == 0, done.stderr
+    assert episodes(out) == episodes(reference_run)
+
+
+@pytest.mark.skipif(not Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").exists(),
+                    reason="needs Linux /proc child lists")
+def test_killing_the_parent_kills_its_workers_and_resume_completes(reference_run, tmp_path):
+    out = tmp_path / "killed-workers"
+    process = subprocess.Popen([*RUN, "--out", str(out), "--jobs", "2", "--workers", "2"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = out / "results.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if results.exists() and len(results.read_text().splitlines()) >= 5:
+            break
+        time.sleep(0.01)
+    children_file = Path(f"/proc/{process.pid}/task/{process.pid}/children")
+    workers = [int(pid) for pid in children_file.read_text().split()]
+    assert len(workers) == 2
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    deadline = time.monotonic() + 10
+    while any(Path(f"/proc/{pid}").exists() for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(Path(f"/proc/{pid}").exists() for pid in workers), "orphaned workers"
+    assert len(results.read_text().splitlines()) < 24, "the kill must land midway"
+
+    resumed = cocobench(out, "--resume", "--workers", "2")
+    assert resumed.returncode == 0, resumed.stderr
+    assert episodes(out) == episodes(reference_run)

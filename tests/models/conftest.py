@@ -7,7 +7,13 @@ from collections.abc import Iterator
 
 import pytest
 
-from cocobench_agents.models import LiteLLMClient, ModelSettings
+from cocobench_agents.models import (
+    TRANSPORTS,
+    LiteLLMClient,
+    ModelSettings,
+    OpenAIHTTPClient,
+    RemoteClient,
+)
 
 from .fake_openai import FakeOpenAI
 from .llama_server import llama_server  # noqa: F401 - a fixture, re-exported for this folder
@@ -57,11 +63,22 @@ def fast_settings(fake: FakeOpenAI, **overrides: object) -> ModelSettings:
     return ModelSettings(**values)  # type: ignore[arg-type]
 
 
-@pytest.fixture
-def make_client(fake: FakeOpenAI, fake_key: str):
-    """A factory: ``make_client(model="openai/fake-model", **settings)`` → `LiteLLMClient`."""
+CLIENTS: dict[str, type[RemoteClient]] = {"litellm": LiteLLMClient, "http": OpenAIHTTPClient}
 
-    def make(model: str = "openai/fake-model", **overrides: object) -> LiteLLMClient:
-        return LiteLLMClient(model, fast_settings(fake, **overrides))
+
+@pytest.fixture(params=TRANSPORTS)
+def transport(request: pytest.FixtureRequest) -> str:
+    """Each transport in turn: the remote-client tests hold for both."""
+    return request.param
+
+
+@pytest.fixture
+def make_client(fake: FakeOpenAI, fake_key: str, transport: str):
+    """A factory: ``make_client(model="openai/fake-model", **settings)`` → the transport's
+    `RemoteClient`."""
+
+    def make(model: str = "openai/fake-model", **overrides: object) -> RemoteClient:
+        settings = fast_settings(fake, transport=transport, **overrides)
+        return CLIENTS[transport](model, settings)
 
     return make

@@ -26,6 +26,7 @@ class Behaviour:
     delay_s: float = 0.0
     headers: tuple[tuple[str, str], ...] = ()
     echo_auth: bool = False  # put the request's Authorization header in an error message
+    raw: bytes | None = None  # sent verbatim instead of `body` (a broken server)
 
 
 def completion_body(
@@ -158,8 +159,9 @@ class FakeOpenAI:
             def log_message(self, *args: object) -> None:  # keep test output clean
                 pass
 
-            def _send(self, status: int, body: dict[str, Any], headers: Iterable = ()) -> None:
-                data = json.dumps(body).encode()
+            def _send(self, status: int, body: dict[str, Any], headers: Iterable = (),
+                      raw: bytes | None = None) -> None:
+                data = json.dumps(body).encode() if raw is None else raw
                 self.send_response(status)
                 self.send_header("Content-Type", "application/json")
                 self.send_header("Content-Length", str(len(data)))
@@ -186,7 +188,7 @@ class FakeOpenAI:
                     if behaviour.echo_auth:
                         auth = self.headers.get("Authorization", "")
                         payload = {"error": {"message": f"Incorrect API key provided: {auth}"}}
-                    self._send(behaviour.status, payload, behaviour.headers)
+                    self._send(behaviour.status, payload, behaviour.headers, behaviour.raw)
                 except (BrokenPipeError, ConnectionResetError):
                     pass  # the client gave up (a timeout test)
                 finally:

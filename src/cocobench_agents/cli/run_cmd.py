@@ -25,7 +25,10 @@ from cocobench_agents.harness import (
     Progress,
     RunFolder,
     RunOptions,
+    WorkerError,
+    available_cores,
     execute,
+    execute_in_workers,
     parse_conditions,
     pending_episodes,
     plan_episodes,
@@ -60,6 +63,9 @@ DEFAULT_TASKS = "cocobench-240"
               help="Run folder.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=8, show_default=True,
               help="Episodes run concurrently.")
+@click.option("--workers", type=click.IntRange(min=0), default=1, show_default=True,
+              help="Processes sharing the --jobs (0: one per core). More than one helps "
+                   "when many episodes in flight against a fast server make CPU the limit.")
 @click.option("--epochs", type=click.IntRange(min=1), default=1, show_default=True)
 @click.option("--resume", is_flag=True,
               help="Complete the missing episodes of --out (starting the run if it is new).")
@@ -89,12 +95,29 @@ def run_command(**kw: Any) -> None:
     click.echo(f"{len(episodes)} episodes ({len(episodes) - len(todo)} already done) "
                f"→ {folder.path}", err=True)
     progress = Progress(len(episodes), already_done=len(episodes) - len(todo))
+    workers = kw["workers"] or available_cores()
+    stopped_early = None
     try:
-        asyncio.run(execute(todo, folder, pool, jobs=kw["jobs"],
-                            on_result=progress.episode_done))
+        if workers > 1:
+            execute_in_workers(todo, folder, pool.settings, jobs=kw["jobs"], workers=workers,
+                               on_result=progress.episode_done)
+        else:
+            asyncio.run(_execute(todo, folder, pool, kw["jobs"], progress))
+    except WorkerError as exc:
+        stopped_early = exc  # what did finish is recorded: show it, then fail
     finally:
         progress.close()
     _summary(folder)
+    if stopped_early is not None:
+        raise click.ClickException(str(stopped_early))
+
+
+async def _execute(todo: list, folder: RunFolder, pool: ModelPool, jobs: int,
+                   progress: Progress) -> None:
+    try:
+        await execute(todo, folder, pool, jobs=jobs, on_result=progress.episode_done)
+    finally:
+        await pool.aclose()  # kept-alive connections belong to this event loop
 
 
 def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any]:

@@ -9,7 +9,7 @@ from typing import Any
 import click
 
 from benchmark_adapter.sim.backends import BACKENDS
-from cocobench_agents.models import ModelSettings
+from cocobench_agents.models import TRANSPORTS, ModelSettings
 
 process_jobs_option = click.option(
     "--jobs", "-j", type=click.IntRange(min=0), default=1, show_default=True,
@@ -58,6 +58,11 @@ def model_options(command: Callable) -> Callable:
         click.option("--seed", type=int, default=None, help="Seed (random built-in, APIs)."),
         click.option("--extra", "extra_json", default=None, metavar="JSON",
                      help='Extra call parameters, e.g. \'{"top_p": 0.9}\'.'),
+        click.option("--transport", type=click.Choice(TRANSPORTS), default="litellm",
+                     show_default=True,
+                     help="How remote models are called: LiteLLM (any provider), or http, a "
+                          "lean OpenAI-compatible client for openai/NAME models (for high "
+                          "--jobs against a local server; see docs/models.md)."),
     ]):
         command = option(command)
     return command
@@ -76,7 +81,7 @@ def model_settings(kw: dict[str, Any]) -> ModelSettings:
         "timeout_s": kw["timeout"], "max_retries": kw["max_retries"],
         "max_concurrency": kw["max_concurrency"], "max_tokens": kw["max_tokens"],
         "grammar": kw["grammar"], "cache_dir": kw["cache_dir"], "seed": kw["seed"],
-        "extra_params": extra,
+        "extra_params": extra, "transport": kw["transport"],
     }
     if kw["temperature"] is not None:
         kwargs["temperature"] = kw["temperature"]

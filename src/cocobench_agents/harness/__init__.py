@@ -16,6 +16,7 @@ _EXPORTS = {
     "Progress": "progress", "episode_line": "progress",
     "pending_episodes": "record", "run_record": "record",
     "RunFolder": "store", "RunFolderError": "store",
+    "WorkerError": "workers", "available_cores": "workers", "execute_in_workers": "workers",
 }
 __all__ = sorted(_EXPORTS)
 

@@ -21,18 +21,29 @@ ResultCallback = Callable[[dict[str, Any]], None]
 
 
 async def execute(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ClientFactory,
-                  *, jobs: int = 1, on_result: ResultCallback | None = None) -> None:
-    """Run every episode, at most `jobs` at a time, appending each result as it finishes."""
+                  *, jobs: int = 1, on_result: ResultCallback | None = None,
+                  store_result: ResultCallback | None = None) -> None:
+    """Run every episode, at most `jobs` at a time, longest step budget first, storing each
+    result as it finishes (appended to the folder's results, unless `store_result` takes it),
+    then `on_result`."""
     gate = asyncio.Semaphore(max(1, jobs))
+    store = folder.append_result if store_result is None else store_result
 
     async def one(planned: PlannedEpisode) -> None:
         async with gate:
             record = await run_one(planned, folder, pool)
-        folder.append_result(record)
+        store(record)
         if on_result is not None:
             on_result(record)
 
-    await asyncio.gather(*(one(p) for p in episodes))
+    # Tasks take the gate in creation order.
+    await asyncio.gather(*(one(p) for p in longest_first(episodes)))
+
+
+def longest_first(episodes: Sequence[PlannedEpisode]) -> list[PlannedEpisode]:
+    """`episodes` by step budget, longest first (stable): a long episode started last would
+    run alone at the end of a run; this order keeps every slot busy until near the end."""
+    return sorted(episodes, key=lambda p: -(p.spec.budget or 0))
 
 
 async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactory

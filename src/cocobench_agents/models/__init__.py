@@ -1,4 +1,5 @@
-"""Model clients: the `ModelClient` protocol, the LiteLLM client, offline built-ins, and the
+"""Model clients: the `ModelClient` protocol, the remote clients (LiteLLM, and the lean
+OpenAI-compatible ``http`` transport), offline built-ins, and the
 `ModelPool` that makes them from spec strings. Importing this package does not import LiteLLM
 (that happens on first use)."""
 
@@ -18,11 +19,19 @@ from .errors import ModelConfigError
 from .grammar import menu_grammar, wants_message
 from .litellm_client import LiteLLMClient, import_litellm
 from .messages import TRUNCATION_MARKER, build_messages, cap_reply, image_data_url, is_truncated
+from .openai_http import OpenAIHTTPClient
 from .protocol import MenuOption, ModelClient, ModelError, ModelReply, ModelRequest
 from .registry import ModelPool
+from .remote import Completion, RemoteClient
 from .replay import ReplayClient, ReplaySource, recorded_replies
 from .secrets import REDACTED, redact, redact_obj
-from .settings import LOCAL_PLACEHOLDER_KEY, TEMPERATURE_AUTO, ModelSettings, is_local_url
+from .settings import (
+    LOCAL_PLACEHOLDER_KEY,
+    TEMPERATURE_AUTO,
+    TRANSPORTS,
+    ModelSettings,
+    is_local_url,
+)
 
 __all__ = [
     "BUILTIN_MODELS",
@@ -30,7 +39,9 @@ __all__ = [
     "LOCAL_PLACEHOLDER_KEY",
     "REDACTED",
     "TEMPERATURE_AUTO",
+    "TRANSPORTS",
     "TRUNCATION_MARKER",
+    "Completion",
     "GreedyClient",
     "LiteLLMClient",
     "MenuOption",
@@ -41,7 +52,9 @@ __all__ = [
     "ModelReply",
     "ModelRequest",
     "ModelSettings",
+    "OpenAIHTTPClient",
     "RandomClient",
+    "RemoteClient",
     "ReplayClient",
     "ReplaySource",
     "ResponseCache",

@@ -18,7 +18,9 @@ from .builtin import (
 from .cache import ResponseCache
 from .errors import ModelConfigError
 from .litellm_client import LiteLLMClient, import_litellm
+from .openai_http import OPENAI_KEY_ENV, OPENAI_PREFIX, OpenAIHTTPClient, preload
 from .protocol import ModelClient
+from .remote import RemoteClient
 from .settings import ModelSettings, is_local_url
 
 _BUILTIN_USAGE = "built-ins: greedy, random, random:SEED, scripted:FILE, replay:PATH"
@@ -27,8 +29,9 @@ _BUILTIN_USAGE = "built-ins: greedy, random, random:SEED, scripted:FILE, replay:
 class ModelPool:
     """Makes the clients of a run from spec strings.
 
-    LiteLLM clients are shared per model string (one concurrency limit and one cache per
-    model); built-in clients are made once per (spec, episode, agent), since they keep state.
+    Remote clients (LiteLLM, or the ``http`` transport) are shared per model string (one
+    concurrency limit and one cache per model); built-in clients are made once per (spec,
+    episode, agent), since they keep state.
     Files named by ``scripted:``/``replay:`` specs are read once per pool.
     """
 
@@ -37,7 +40,7 @@ class ModelPool:
         self.cache = (
             ResponseCache(self.settings.cache_dir) if self.settings.cache_dir is not None else None
         )
-        self._remote: dict[str, LiteLLMClient] = {}
+        self._remote: dict[str, RemoteClient] = {}
         self._builtin: dict[tuple[str, str, str | None], ModelClient] = {}
         self._scripts: dict[str, Script] = {}
         self._replays: dict[str, ReplaySource] = {}
@@ -48,13 +51,19 @@ class ModelPool:
         if name not in BUILTIN_MODELS:
             remote = self._remote.get(spec)
             if remote is None:
-                remote = self._remote[spec] = LiteLLMClient(spec, self.settings, cache=self.cache)
+                kind = OpenAIHTTPClient if self.settings.transport == "http" else LiteLLMClient
+                remote = self._remote[spec] = kind(spec, self.settings, cache=self.cache)
             return remote
         key = (spec, episode, agent)
         client = self._builtin.get(key)
         if client is None:
             client = self._builtin[key] = self._make_builtin(spec, name, arg, episode, agent)
         return client
+
+    async def aclose(self) -> None:
+        """Close the connections remote clients keep open for the running event loop."""
+        for remote in self._remote.values():
+            await remote.aclose()
 
     def release(self, episode: str) -> None:
         """Forget the built-in clients of a finished episode."""
@@ -63,7 +72,8 @@ class ModelPool:
 
     def validate(self, spec: str) -> None:
         """Raise `ModelConfigError` (one line: the model and what to set or fix) unless
-        `spec` can be used: built-in files readable, LiteLLM model known, API key present."""
+        `spec` can be used: built-in files readable, LiteLLM model known (an ``openai/`` one
+        for the ``http`` transport), API key present."""
         name, arg = split_spec(spec)
         if name in BUILTIN_MODELS:
             self._builtin_source(spec, name, arg)
@@ -113,20 +123,20 @@ class ModelPool:
         assert isinstance(source, ReplaySource)
         return ReplayClient(spec, source, episode=episode, agent=agent)
 
-    # -- LiteLLM models ---------------------------------------------------------------------
+    # -- remote models ----------------------------------------------------------------------
 
     def _validate_remote(self, spec: str) -> None:
         s = self.settings
-        litellm = import_litellm()
-        try:
-            litellm.get_llm_provider(model=spec, api_base=s.api_base)
-        except Exception:  # noqa: BLE001 - LiteLLM raises several types for an unknown model
+        if s.transport == "http" and not spec.startswith(OPENAI_PREFIX):
             raise ModelConfigError(
                 spec,
-                "unknown model: LiteLLM cannot tell its provider; write provider/model "
-                "(e.g. openai/gpt-4o, anthropic/claude-sonnet-4-5, openai/NAME with an "
-                f"api_base for an OpenAI-compatible server), or one of the {_BUILTIN_USAGE}",
-            ) from None
+                "the http transport speaks the OpenAI chat-completions API only: name the "
+                f"model {OPENAI_PREFIX}NAME, or use --transport litellm for other providers",
+            )
+        if s.transport == "http":
+            preload(spec)
+        else:
+            self._validate_litellm_model(spec)
         if s.api_key_env:
             if not os.environ.get(s.api_key_env):
                 raise ModelConfigError(
@@ -135,6 +145,13 @@ class ModelPool:
             return
         if is_local_url(s.api_base):
             return  # local servers (llama.cpp, vLLM, Ollama) rarely check keys
+        if s.transport == "http":
+            if not os.environ.get(OPENAI_KEY_ENV):
+                raise ModelConfigError(
+                    spec, f"no API key: set {OPENAI_KEY_ENV} in the environment "
+                    "(or name the variable holding the key with api_key_env)")
+            return
+        litellm = import_litellm()
         try:
             missing = litellm.validate_environment(model=spec, api_base=s.api_base).get(
                 "missing_keys"
@@ -147,3 +164,16 @@ class ModelPool:
                 f"no API key: set {' and '.join(missing)} in the environment "
                 "(or name the variable holding the key with api_key_env)",
             )
+
+    def _validate_litellm_model(self, spec: str) -> None:
+        # Also imports LiteLLM (seconds) before episodes start rather than during the first.
+        litellm = import_litellm()
+        try:
+            litellm.get_llm_provider(model=spec, api_base=self.settings.api_base)
+        except Exception:  # noqa: BLE001 - LiteLLM raises several types for an unknown model
+            raise ModelConfigError(
+                spec,
+                "unknown model: LiteLLM cannot tell its provider; write provider/model "
+                "(e.g. openai/gpt-4o, anthropic/claude-sonnet-4-5, openai/NAME with an "
+                f"api_base for an OpenAI-compatible server), or one of the {_BUILTIN_USAGE}",
+            ) from None

@@ -18,6 +18,9 @@ _REFERENCE_T0_PREFIXES = ("gpt", "o1", "o3", "o4")
 #: The key sent to a local server when no `api_key_env` is given (OpenAI-style clients
 #: refuse to send a request without one; local servers rarely check it).
 LOCAL_PLACEHOLDER_KEY = "no-key-required"
+#: How remote models are called: through LiteLLM (the default, any provider), or ``http``, a
+#: lean OpenAI-compatible client for high-concurrency runs (see `openai_http`).
+TRANSPORTS = ("litellm", "http")
 
 
 def is_local_url(url: str | None) -> bool:
@@ -59,6 +62,8 @@ class ModelSettings:
     * `backoff_s` / `backoff_max_s`: exponential backoff with full jitter between retries
       (``random(0, min(backoff_max_s, backoff_s × 2^n))``).
     * `max_reply_chars`: longer replies are truncated and marked (see `TRUNCATION_MARKER`).
+    * `transport`: ``"litellm"`` (default) or ``"http"``: ``openai/NAME`` models posted straight
+      to ``{api_base}/chat/completions``, for runs the LiteLLM client's CPU cost would bound.
     """
 
     api_base: str | None = None
@@ -75,6 +80,7 @@ class ModelSettings:
     backoff_s: float = 1.0
     backoff_max_s: float = 30.0
     max_reply_chars: int = 16_384
+    transport: str = "litellm"
 
     def __post_init__(self) -> None:
         # A private copy, so later changes to the caller's dict cannot leak into a run.
@@ -91,6 +97,9 @@ class ModelSettings:
             raise ValueError("backoff_s and backoff_max_s must be >= 0")
         if self.max_reply_chars < 1:
             raise ValueError(f"max_reply_chars must be >= 1, got {self.max_reply_chars}")
+        if self.transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, "
+                             f"got {self.transport!r}")
         if isinstance(self.temperature, str) and self.temperature != TEMPERATURE_AUTO:
             raise ValueError(
                 f"temperature must be a number, None or {TEMPERATURE_AUTO!r}, "
@@ -143,6 +152,7 @@ class ModelSettings:
             "backoff_s": self.backoff_s,
             "backoff_max_s": self.backoff_max_s,
             "max_reply_chars": self.max_reply_chars,
+            "transport": self.transport,
         }
         # extra_params may carry headers or tokens a user put there by hand.
         return redact_obj(record, [self.api_key()])  # type: ignore[return-value]

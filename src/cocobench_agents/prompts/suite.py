@@ -6,6 +6,7 @@ names a suite and, optionally, variants joined with `+`: `cocobench-v1+no-hint+n
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass, field
 from importlib import resources
@@ -65,9 +66,18 @@ def load_prompt_suite(spec: str = DEFAULT_SUITE) -> PromptSuite:
     if unknown:
         raise PromptSuiteError(f"unknown prompt variant {unknown[0]!r} (available: "
                                f"{', '.join(VARIANTS)})")
+    meta, templates = _read_suite(name)
+    return PromptSuite(name=name, version=str(meta.get("version", "")),
+                       templates=dict(templates), variants=frozenset(variants),
+                       settings=dict(meta))
+
+
+@functools.cache
+def _read_suite(name: str) -> tuple[dict[str, Any], dict[str, str]]:
+    """suite.json and the templates of a shipped suite, read once per process (every
+    episode loads its suite)."""
     folder = resources.files(__package__) / "templates" / name
     meta = json.loads((folder / "suite.json").read_text(encoding="utf-8"))
     templates = {p.name.removesuffix(".txt"): p.read_text(encoding="utf-8")
                  for p in folder.iterdir() if p.name.endswith(".txt")}
-    return PromptSuite(name=name, version=str(meta.get("version", "")), templates=templates,
-                       variants=frozenset(variants), settings=meta)
+    return meta, templates

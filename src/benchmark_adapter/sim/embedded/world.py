@@ -143,13 +143,16 @@ def _floor(
     zs = [z for _, z, _ in geometry] or [0.0]
     x0, x1 = math.floor((min(xs) - margin) / GRID), math.ceil((max(xs) + margin) / GRID)
     z0, z1 = math.floor((min(zs) - margin) / GRID), math.ceil((max(zs) + margin) / GRID)
-    blockers = [(x, z, r) for x, z, r in geometry if r > 0]
-    cells = set()
-    for cx in range(x0, x1 + 1):
-        for cz in range(z0, z1 + 1):
-            x, z = cx * GRID, cz * GRID
-            if all(math.hypot(bx - x, bz - z) > r for bx, bz, r in blockers):
-                cells.add((cx, cz))
+    cells = {(cx, cz) for cx in range(x0, x1 + 1) for cz in range(z0, z1 + 1)}
+    for bx, bz, r in geometry:
+        if r <= 0:
+            continue
+        # A cell within r of the blocker is within r on each axis: test only those (with a
+        # cell of slack), not the whole room.
+        for cx in range(math.floor((bx - r) / GRID) - 1, math.ceil((bx + r) / GRID) + 2):
+            for cz in range(math.floor((bz - r) / GRID) - 1, math.ceil((bz + r) / GRID) + 2):
+                if math.hypot(bx - cx * GRID, bz - cz * GRID) <= r:
+                    cells.discard((cx, cz))
     return frozenset(cells)
 
 

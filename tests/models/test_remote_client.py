@@ -1,4 +1,5 @@
-"""`LiteLLMClient` against a local fake OpenAI server: retries, timeouts, error kinds, payloads."""
+"""The remote clients (LiteLLM and the ``http`` transport, each test for both) against a local
+fake OpenAI server: retries, timeouts, error kinds, payloads."""
 
 from __future__ import annotations
 
@@ -160,15 +161,18 @@ def test_other_client_errors_fail_fast(fake, make_client, status, kind):
     assert fake.count == 1
 
 
-def test_unreachable_server_is_transient(fake_key):
-    from cocobench_agents.models import LiteLLMClient, ModelSettings
+def test_unreachable_server_is_transient(fake_key, transport):
+    from cocobench_agents.models import ModelSettings
+
+    from .conftest import CLIENTS
 
     # Port 9 on loopback (discard) is closed on a test machine: connection refused at once.
     settings = ModelSettings(
         api_base="http://127.0.0.1:9/v1", api_key_env="FAKE_PROVIDER_API_KEY",
         max_retries=1, backoff_s=0.001, backoff_max_s=0.002, timeout_s=2.0,
+        transport=transport,
     )  # fmt: skip
-    err = fails(LiteLLMClient("openai/fake-model", settings))
+    err = fails(CLIENTS[transport]("openai/fake-model", settings))
     assert err.kind == "transient"
     assert err.retries == 1
 

@@ -1,0 +1,134 @@
+"""Running a plan across worker processes, each an event loop with its share of the episodes
+and of the concurrency.
+
+One process runs out of CPU long before a fast model server runs out of answers (the graph,
+the simulator and the client cost milliseconds per call): ``--workers`` spreads the episodes
+over cores. Workers write trajectories; only the parent appends to ``results.jsonl`` (one
+writer keeps every line whole), as each worker sends a result back. A worker that dies loses
+only the episodes it had in flight: ``--resume`` runs them again.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import multiprocessing
+import os
+import signal
+from collections.abc import Sequence
+from multiprocessing.connection import Connection, wait
+from pathlib import Path
+from typing import Any
+
+from cocobench_agents.harness.batch import ResultCallback, execute, longest_first
+from cocobench_agents.harness.plan import PlannedEpisode
+from cocobench_agents.harness.store import RunFolder
+from cocobench_agents.models import ModelPool, ModelSettings
+
+
+class WorkerError(RuntimeError):
+    """A worker process died before finishing its episodes."""
+
+
+def available_cores() -> int:
+    """Cores this process may use (its CPU affinity where the OS tells it)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def execute_in_workers(episodes: Sequence[PlannedEpisode], folder: RunFolder,
+                       settings: ModelSettings, *, jobs: int, workers: int,
+                       on_result: ResultCallback | None = None) -> None:
+    """Run every episode in `workers` processes sharing `jobs` (and each model's
+    `max_concurrency`) between them; append each result as it arrives, then `on_result`."""
+    workers = max(1, min(workers, jobs, len(episodes)))
+    episodes = longest_first(episodes)  # dealt in turn: each worker gets long and short ones
+    context = _context()
+    running: dict[Connection, multiprocessing.process.BaseProcess] = {}
+    try:
+        for index in range(workers):
+            receive, send = context.Pipe(duplex=False)
+            process = context.Process(
+                target=_work, name=f"cocobench-worker-{index}", daemon=True,
+                args=(episodes[index::workers], folder.path, _share_settings(settings, index,
+                      workers), _share(jobs, index, workers), send))
+            process.start()
+            send.close()  # the worker holds the only sending end: EOF means it has ended
+            running[receive] = process
+        _collect(running, folder, on_result)
+    finally:
+        for process in running.values():  # on Ctrl-C or an error here: stop them all
+            if process.is_alive():
+                process.terminate()
+            process.join()
+
+
+def _collect(running: dict[Connection, Any], folder: RunFolder,
+             on_result: ResultCallback | None) -> None:
+    died = []
+    open_ends = dict(running)
+    while open_ends:
+        for end in wait(list(open_ends)):
+            try:
+                record = end.recv()
+            except EOFError:
+                process = open_ends.pop(end)
+                process.join()
+                if process.exitcode != 0:
+                    died.append(f"{process.name} (exit code {process.exitcode})")
+                continue
+            folder.append_result(record)
+            if on_result is not None:
+                on_result(record)
+    if died:
+        raise WorkerError(f"{', '.join(died)} stopped early: the episodes it had not finished "
+                          "are missing; run again with --resume to complete them")
+
+
+def _work(episodes: list[PlannedEpisode], folder_path: Path, settings: ModelSettings,
+          jobs: int, send: Connection) -> None:
+    # The parent owns Ctrl-C (it stops the workers); a worker must not outlive it either.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent()
+    asyncio.run(_execute_share(episodes, RunFolder(folder_path), settings, jobs, send))
+    send.close()
+
+
+async def _execute_share(episodes: list[PlannedEpisode], folder: RunFolder,
+                         settings: ModelSettings, jobs: int, send: Connection) -> None:
+    pool = ModelPool(settings)
+    try:
+        await execute(episodes, folder, pool, jobs=jobs, store_result=send.send)
+    finally:
+        await pool.aclose()
+
+
+def _share(total: int, index: int, parts: int) -> int:
+    """Worker `index`'s part of `total` (parts differ by at least one, never below one)."""
+    return max(1, total // parts + (1 if index < total % parts else 0))
+
+
+def _share_settings(settings: ModelSettings, index: int, parts: int) -> ModelSettings:
+    return dataclasses.replace(
+        settings, max_concurrency=_share(settings.max_concurrency, index, parts))
+
+
+def _context() -> multiprocessing.context.BaseContext:
+    # Fork where there is one: the parent has imported LangGraph and the clients already
+    # (seconds per spawned worker otherwise) and runs no event loop or thread yet.
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+
+
+def _die_with_parent() -> None:
+    """Linux: have the kernel kill this worker when the parent dies (even by SIGKILL)."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        pr_set_pdeathsig = 1
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL)
+    except (OSError, AttributeError):
+        pass  # elsewhere a worker ends at its next result, when the pipe is gone
