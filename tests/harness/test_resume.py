@@ -34,6 +34,19 @@ def episodes(folder: Path) -> dict[tuple, dict]:
     return out
 
 
+def start_and_wait_for_results(out: Path, *extra: str, count: int = 5) -> subprocess.Popen:
+    """Start a run in the background; return once `count` results are recorded."""
+    process = subprocess.Popen([*RUN, "--out", str(out), *extra],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = out / "results.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if results.exists() and len(results.read_text().splitlines()) >= count:
+            break
+        time.sleep(0.01)
+    return process
+
+
 @pytest.fixture(scope="module")
 def reference_run(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("runs") / "whole"
@@ -44,14 +57,8 @@ def reference_run(tmp_path_factory) -> Path:
 
 def test_a_killed_and_resumed_run_equals_an_uninterrupted_one(reference_run, tmp_path):
     out = tmp_path / "killed"
-    process = subprocess.Popen([*RUN, "--out", str(out), "--jobs", "2"],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    process = start_and_wait_for_results(out, "--jobs", "2")
     results = out / "results.jsonl"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        if results.exists() and len(results.read_text().splitlines()) >= 5:
-            break
-        time.sleep(0.01)
     os.kill(process.pid, signal.SIGKILL)
     process.wait()
     recorded = len(results.read_text().splitlines())
@@ -84,14 +91,8 @@ def test_results_do_not_depend_on_worker_processes(reference_run, tmp_path):
                     reason="needs Linux /proc child lists")
 def test_killing_the_parent_kills_its_workers_and_resume_completes(reference_run, tmp_path):
     out = tmp_path / "killed-workers"
-    process = subprocess.Popen([*RUN, "--out", str(out), "--jobs", "2", "--workers", "2"],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    process = start_and_wait_for_results(out, "--jobs", "2", "--workers", "2")
     results = out / "results.jsonl"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        if results.exists() and len(results.read_text().splitlines()) >= 5:
-            break
-        time.sleep(0.01)
     children_file = Path(f"/proc/{process.pid}/task/{process.pid}/children")
     workers = [int(pid) for pid in children_file.read_text().split()]
     assert len(workers) == 2

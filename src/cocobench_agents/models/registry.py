@@ -24,6 +24,8 @@ from .remote import RemoteClient
 from .settings import ModelSettings, is_local_url
 
 _BUILTIN_USAGE = "built-ins: greedy, random, random:SEED, scripted:FILE, replay:PATH"
+_REMOTE_CLIENTS: dict[str, type[RemoteClient]] = {
+    kind.transport: kind for kind in (LiteLLMClient, OpenAIHTTPClient)}
 
 
 class ModelPool:
@@ -51,7 +53,7 @@ class ModelPool:
         if name not in BUILTIN_MODELS:
             remote = self._remote.get(spec)
             if remote is None:
-                kind = OpenAIHTTPClient if self.settings.transport == "http" else LiteLLMClient
+                kind = _REMOTE_CLIENTS[self.settings.transport]
                 remote = self._remote[spec] = kind(spec, self.settings, cache=self.cache)
             return remote
         key = (spec, episode, agent)
