@@ -71,9 +71,9 @@ def trajectory_document(
 
 def dumps(document: Mapping[str, Any]) -> str:
     """Canonical JSON text (same document → same bytes): the bytes of
-    ``json.dumps(document, indent=2, ensure_ascii=False)``, written by orjson in a
-    fortieth of the time (the standard library's indenting encoder is pure Python, and a
-    trajectory is written for every episode)."""
+    ``json.dumps(document, indent=2, ensure_ascii=False)`` (NaN, which a trajectory never
+    holds, would become null), written by orjson in a fortieth of the time: the standard
+    library's indenting encoder is pure Python, and every episode writes a trajectory."""
     return orjson.dumps(document, option=_ORJSON_OPTIONS).decode() + "\n"
 
 
