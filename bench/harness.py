@@ -34,7 +34,7 @@ from cocobench_agents.harness import (
     Condition,
     RunFolder,
     RunOptions,
-    execute,
+    execute_and_close,
     execute_in_workers,
     plan_episodes,
 )
@@ -112,7 +112,7 @@ def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int,
             if workers > 1:
                 execute_in_workers(planned, folder, settings, jobs=jobs, workers=workers)
             else:
-                asyncio.run(_execute_and_close(planned, folder, pool, jobs))
+                asyncio.run(execute_and_close(planned, folder, pool, jobs=jobs))
             wall, cpu = time.perf_counter() - start, _cpu_s() - cpu
             calls = sum(r["usage"]["model_calls"] for r in folder.results())
         ideal = calls * delay / jobs
@@ -140,13 +140,6 @@ def _server_cpu_s(pid: int) -> float:
     except OSError:
         return 0.0
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
-async def _execute_and_close(planned, folder, pool, jobs) -> None:
-    try:
-        await execute(planned, folder, pool, jobs=jobs)
-    finally:
-        await pool.aclose()
 
 
 def memory(suite: str) -> None:

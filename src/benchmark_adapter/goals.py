@@ -70,11 +70,10 @@ def _sliced_by(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
 
 
 def _filled_check(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
-    o = objs[g.obj]
+    filled, liquid = objs[g.obj].get("isFilledWithLiquid"), objs[g.obj].get("fillLiquid")
     # As the reference: an unrecorded liquid satisfies any requested one.
-    liquid = o.get("fillLiquid")
-    ok = bool(o.get("isFilledWithLiquid")) and (not g.liquid or not liquid or liquid == g.liquid)
-    return ok, f"isFilledWithLiquid={o.get('isFilledWithLiquid')}, fillLiquid={o.get('fillLiquid')}"
+    ok = bool(filled) and (not g.liquid or not liquid or liquid == g.liquid)
+    return ok, f"isFilledWithLiquid={filled}, fillLiquid={liquid}"
 
 
 @dataclass(frozen=True)

@@ -96,7 +96,7 @@ def _agent_phrases(objs: list[tuple[str, Mapping[str, Any]]]) -> list[tuple[str,
     def having(*flags: str) -> list[tuple[str, tuple[str]]]:
         return [(a, (o["objectId"],)) for a, o in objs if any(o.get(f) for f in flags)]
 
-    out = [(f"find a {a}", "Find", oid) for a, oid in having(*AFFORDANCE_FLAGS)]
+    out = [(f"find a {a}", "Find", (o["objectId"],)) for a, o in objs]  # all are candidates
     out += [(f"explore {d}", "Explore", (d,)) for d in EXPLORE_DIRECTIONS]
     out.append(("wait", "Wait", ()))
     out += [(f"pick up the {a}", "PickUp", oid) for a, oid in having("pickupable")]

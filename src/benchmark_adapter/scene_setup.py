@@ -33,34 +33,32 @@ def _apply(controller: Controller, action: dict[str, Any]) -> dict[str, Any]:
             return _trace(action, True, "already satisfied")
         native = "ToggleObjectOn" if want else "ToggleObjectOff"
         return native_step(controller, {"action": native, "objectId": object_id,
-                                        "forceAction": True}, agent_id=0)
+                                        "forceAction": True, "agentId": 0})
     if kind == "ensure_empty":
         obj = _object(controller, object_id)
         if obj is None or not obj.get("isFilledWithLiquid"):
             return _trace(action, True, "already empty")
         return native_step(controller, {"action": "EmptyLiquidFromObject",
-                                        "objectId": object_id}, agent_id=0)
+                                        "objectId": object_id, "agentId": 0})
     if kind in FORCED_BY_DEFAULT:
         action.setdefault("forceAction", True)
-    return native_step(controller, action, agent_id=None)
+    return native_step(controller, action)
 
 
-def native_step(controller: Controller, action: dict[str, Any], agent_id: int | None
-                ) -> dict[str, Any]:
-    """Run one native action (the config's own `agentId`, if any, is kept); trace it.
+def native_step(controller: Controller, action: dict[str, Any]) -> dict[str, Any]:
+    """Run one native action as its `agentId` (default: the backend's) and trace it.
 
     As in the reference, success is read from agent 0's metadata, and an exception becomes a
     failed trace entry.
     """
-    native = dict(action) if agent_id is None else {**action, "agentId": agent_id}
-    kwargs = {k: v for k, v in native.items() if k not in ("action", "agentId")}
+    kwargs = {k: v for k, v in action.items() if k not in ("action", "agentId")}
     try:
-        if not isinstance(native.get("action"), str):
+        if not isinstance(action.get("action"), str):
             raise ValueError("init action without an 'action' name")
-        own = controller.step(native["action"], agentId=native.get("agentId"), **kwargs)[0]
+        own = controller.step(action["action"], agentId=action.get("agentId"), **kwargs)[0]
     except Exception as exc:  # noqa: BLE001 - init failures never abort an episode
-        return _trace(native, False, repr(exc))
-    return _trace(native, bool(own["lastActionSuccess"]), own["errorMessage"] or "")
+        return _trace(action, False, repr(exc))
+    return _trace(action, bool(own["lastActionSuccess"]), own["errorMessage"] or "")
 
 
 def _object(controller: Controller, object_id: Any) -> Mapping[str, Any] | None:

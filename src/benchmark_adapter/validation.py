@@ -49,23 +49,22 @@ class ValidationRow:
 def validate_task(config: TaskConfig, max_steps: int = VALIDATION_MAX_STEPS,
                   backend: str = "embedded") -> ValidationRow:
     """Run the oracle of one instance on `backend` and apply the three gates."""
-    controller = None
     try:
         controller = None if backend == "embedded" else make_controller(config, backend)
         trajectory = run_oracle(config, controller, max_steps=max_steps)
         result = score_trajectory(trajectory)
-    except Exception as exc:  # noqa: BLE001 -  # a broken instance is a failed row, not a crashed run
+    except Exception as exc:  # noqa: BLE001 - a broken instance is a failed row, not a crash
         return ValidationRow(
-            config.task_id,
-            config.cell,
-            config.agent_count,
-            0,
-            False,
-            None,
-            None,
-            "error",
-            False,
-            f"error: {exc}",
+            task_id=config.task_id,
+            cell=config.cell,
+            agents=config.agent_count,
+            steps=0,
+            success=False,
+            legal_plan=None,
+            construct_score=None,
+            construct_status="error",
+            passed=False,
+            reason=f"error: {exc}",
         )
     reason = _failure_reason(trajectory, result)
     return ValidationRow(

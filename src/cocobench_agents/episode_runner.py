@@ -41,11 +41,6 @@ class EpisodeSpec:
         return self.episode_key or self.config.task_id
 
     @property
-    def condition(self) -> str:
-        """`C0_image`, `D1_blind`, … (the reference's condition names)."""
-        return f"{planner_spec(self.planner).code}_{self.obs_mode}"
-
-    @property
     def budget(self) -> int | None:
         """Landed steps allowed: `max_steps` if given, else the config's step budget."""
         return self.max_steps if self.max_steps else self.config.budget

@@ -196,10 +196,13 @@ def test_toggled(kitchen: Sim, value: bool, is_toggled: bool, expected: bool) ->
     assert _check(kitchen, goal)["passed"] is expected
 
 
-def test_sliced(kitchen: Sim) -> None:
-    goal = {"predicate": "sliced", "object": "tomato"}
+@pytest.mark.parametrize(("predicate", "attribute"), [
+    ("sliced", "is_sliced"), ("cooked", "is_cooked"),
+])
+def test_sliced_and_cooked(kitchen: Sim, predicate: str, attribute: str) -> None:
+    goal = {"predicate": predicate, "object": "tomato"}
     assert _check(kitchen, goal)["passed"] is False
-    _set(kitchen, TOMATO, is_sliced=True)
+    _set(kitchen, TOMATO, **{attribute: True})
     assert _check(kitchen, goal)["passed"] is True
 
 
@@ -288,13 +291,6 @@ def test_empty(kitchen: Sim) -> None:
     assert _check(kitchen, goal)["passed"] is True
     _set(kitchen, MUG, is_filled=True, fill_liquid="water")
     assert _check(kitchen, goal)["passed"] is False
-
-
-def test_cooked(kitchen: Sim) -> None:
-    goal = {"predicate": "cooked", "object": "tomato"}
-    assert _check(kitchen, goal)["passed"] is False
-    _set(kitchen, TOMATO, is_cooked=True)
-    assert _check(kitchen, goal)["passed"] is True
 
 
 @pytest.mark.parametrize("goal", [

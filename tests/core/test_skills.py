@@ -326,27 +326,23 @@ def test_unknown_agent_and_malformed_calls(kitchen: Sim) -> None:
 
 # -- visibility: non-forced skills need a Find, forced ones do not (reference QUIRK §4.2) ----
 
-def test_toggle_on_needs_the_object_in_view(kitchen: Sim) -> None:
+@pytest.mark.parametrize(("prepare", "skill", "target", "flag"), [
+    ([], "ToggleOn", LIGHT, "isToggled"),
+    ([f"PickUp(agent_1, {KNIFE})"], "Slice", TOMATO, "isSliced"),
+])
+def test_non_forced_skill_needs_the_object_in_view(
+    kitchen: Sim, prepare: list[str], skill: str, target: str, flag: str
+) -> None:
+    for call in prepare:
+        ok(kitchen, call)
     blind(kitchen, 0)
-    result = kitchen.run(f"ToggleOn(agent_1, {LIGHT})")
+    result = kitchen.run(f"{skill}(agent_1, {target})")
     assert result.success is False
-    assert result.errorMessage.startswith(f"{LIGHT} is not interactable")
-    assert kitchen.obj(LIGHT)["isToggled"] is False
-    ok(kitchen, f"Find(agent_1, {LIGHT})")
-    ok(kitchen, f"ToggleOn(agent_1, {LIGHT})")
-    assert kitchen.obj(LIGHT)["isToggled"] is True
-
-
-def test_slice_needs_the_object_in_view(kitchen: Sim) -> None:
-    ok(kitchen, f"PickUp(agent_1, {KNIFE})")
-    blind(kitchen, 0)
-    result = kitchen.run(f"Slice(agent_1, {TOMATO})")
-    assert result.success is False
-    assert result.errorMessage.startswith(f"{TOMATO} is not interactable")
-    assert kitchen.obj(TOMATO)["isSliced"] is False
-    ok(kitchen, f"Find(agent_1, {TOMATO})")
-    ok(kitchen, f"Slice(agent_1, {TOMATO})")
-    assert kitchen.obj(TOMATO)["isSliced"] is True
+    assert result.errorMessage.startswith(f"{target} is not interactable")
+    assert kitchen.obj(target)[flag] is False
+    ok(kitchen, f"Find(agent_1, {target})")
+    ok(kitchen, f"{skill}(agent_1, {target})")
+    assert kitchen.obj(target)[flag] is True
 
 
 def test_forced_skills_succeed_without_find(kitchen: Sim) -> None:

@@ -21,7 +21,7 @@ from benchmark_adapter.generator.composition import (
 )
 from benchmark_adapter.generator.jsonfmt import dumps
 from benchmark_adapter.generator.rooms import ROOMS
-from benchmark_adapter.generator.suites import SUBSET_FILE
+from benchmark_adapter.generator.suites import SUBSET_FILE, config_path
 from benchmark_adapter.tasks import load_tasks, select_tasks
 from cocobench_agents.cli import generate_cmd
 
@@ -101,10 +101,6 @@ def test_worker_processes_give_the_same_instances() -> None:
     serial, parallel = run_strata(strata, jobs=1), run_strata(strata, jobs=2)
     assert serial[0].kept == parallel[0].kept
     assert serial[0].verdicts == parallel[0].verdicts
-
-
-def config_path(config: dict[str, Any]) -> str:
-    return f"{config['task_family']}_{config['coordination_dim']}/{config['task_id']}.json"
 
 
 def test_generate_command_writes_and_checks(

@@ -20,6 +20,12 @@ TOMATO = "Tomato|-00.39|+01.14|-00.81"
 POTATO = "Potato|-01.66|+00.93|-02.15"
 SOFA = "Sofa|-02.40|00.00|+03.42"
 
+# Executor error texts: a Put into a closed box (precondition violation), a PickUp of the
+# knife a teammate holds (concurrency conflict), a Put onto a full receptacle (affordance miss).
+CLOSED = f"{BOX} is closed; Open it first"
+HELD = f"{KNIFE} is already held by another agent"
+NO_ROOM = "No valid positions to place object found"
+
 
 def make_config(
     dim: str = "D1",
@@ -156,3 +162,14 @@ def placed(aliases: dict[str, str], on_buffer: list[str], buffer: str = PLATE) -
         }
         for alias, oid in aliases.items()
     }
+
+
+def illegal_success(config: dict[str, Any], *items: dict[str, Any]) -> dict[str, Any]:
+    """A successful episode whose plan is illegal: a Put into the closed box, then the Open;
+    ``items`` follow."""
+    steps = [
+        step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False, error=CLOSED),
+        step("agent_1", "Open", BOX),
+        *items,
+    ]
+    return make_traj(config, steps, success=True, passed=1, total=1)

@@ -22,10 +22,13 @@ from .builders import (
     APPLE,
     BOX,
     CARD,
+    CLOSED,
     FRIDGE,
+    HELD,
     K_SKILLS,
     KEYCHAIN,
     KNIFE,
+    NO_ROOM,
     PLATE,
     POTATO,
     SOFA,
@@ -36,11 +39,6 @@ from .builders import (
     step,
     stop,
 )
-
-CLOSED = f"{BOX} is closed; Open it first"
-HELD = f"{KNIFE} is already held by another agent"
-NO_ROOM = "No valid positions to place object found"
-
 
 # ---- gating ------------------------------------------------------------------------
 

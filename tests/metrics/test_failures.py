@@ -15,7 +15,7 @@ from benchmark_adapter.metrics import (
     terminal_reason,
 )
 
-from .builders import BOX, KEYCHAIN, make_config, make_traj, step, stop
+from .builders import BOX, KEYCHAIN, illegal_success, make_config, make_traj, step, stop
 
 
 def decided(status: str, planner_steps, **fields) -> dict:
@@ -144,23 +144,5 @@ def test_d2_illegal_success_keeps_goal_based_failure_fields():
     # Goals met by an illegal D2 plan: task_success is gated to 0, but the terminal-state
     # classification and empty_plan use the raw goal check, as the reference's empty_plan.
     config = make_config("D2", "C", objects={"container": BOX})
-    traj = make_traj(
-        config,
-        [
-            step(
-                "agent_1",
-                "Put",
-                KEYCHAIN,
-                to=BOX,
-                ok=False,
-                error=f"{BOX} is closed; Open it first",
-            ),
-            step("agent_1", "Open", BOX),
-            stop("done"),
-        ],
-        success=True,
-        passed=1,
-        total=1,
-    )
-    r = score_trajectory(traj)
+    r = score_trajectory(illegal_success(config, stop("done")))
     assert (r.task_success, r.legal_plan, r.failure_kind, r.empty_plan) == (0, 0, "success", 0)

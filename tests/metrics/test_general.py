@@ -28,11 +28,14 @@ from benchmark_adapter.metrics import (
 from .builders import (
     BOX,
     CARD,
+    HELD,
     K_SKILLS,
     KEYCHAIN,
     KNIFE,
+    NO_ROOM,
     POTATO,
     SOFA,
+    illegal_success,
     make_config,
     make_traj,
     step,
@@ -55,14 +58,7 @@ def centralized_traj() -> dict:
     items = [
         step("agent_1", "Find", KEYCHAIN),  # 1 progress
         step("agent_1", "PickUp", KEYCHAIN),  # 2 progress
-        step(
-            "agent_1",
-            "Put",
-            KEYCHAIN,
-            to=SOFA,
-            ok=False,
-            error="No valid positions to place object found",
-        ),  # 3 affordance
+        step("agent_1", "Put", KEYCHAIN, to=SOFA, ok=False, error=NO_ROOM),  # 3 affordance
         step("agent_1", "Put", KEYCHAIN, to=SOFA),  # 4 progress
         step(
             "agent_2",
@@ -142,23 +138,7 @@ def test_d2_success_needs_a_legal_plan():
     config = make_config(
         "D2", "C", objects={"container": BOX}, constraints={"precedence": [["a", "b"]]}
     )
-    illegal = make_traj(
-        config,
-        [
-            step(
-                "agent_1",
-                "Put",
-                KEYCHAIN,
-                to=BOX,
-                ok=False,
-                error=f"{BOX} is closed; Open it first",
-            ),
-            step("agent_1", "Open", BOX),
-        ],
-        success=True,
-        passed=1,
-        total=1,
-    )
+    illegal = illegal_success(config)
     m = general_metrics(illegal)
     assert (m.success, m.legal_plan, m.success_with_d2_legality_gate) == (True, False, False)
     assert score_trajectory(illegal).task_success == 0
@@ -217,15 +197,7 @@ def distributed_traj() -> dict:
     )
     items = [
         step("agent_1", "PickUp", KNIFE, round_index=1, message="I take the knife"),
-        step(
-            "agent_2",
-            "PickUp",
-            KNIFE,
-            ok=False,
-            round_index=1,
-            message="after you",
-            error=f"{KNIFE} is already held by another agent",
-        ),
+        step("agent_2", "PickUp", KNIFE, ok=False, round_index=1, message="after you", error=HELD),
         step(
             "agent_1",
             "Find",

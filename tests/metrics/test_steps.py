@@ -14,7 +14,19 @@ from benchmark_adapter.metrics import (
     step_taxonomy,
 )
 
-from .builders import BOX, FRIDGE, KEYCHAIN, KNIFE, make_config, make_traj, step, stop
+from .builders import (
+    BOX,
+    CLOSED,
+    FRIDGE,
+    HELD,
+    KEYCHAIN,
+    KNIFE,
+    NO_ROOM,
+    make_config,
+    make_traj,
+    step,
+    stop,
+)
 
 ALLOWED = {"agent_1": frozenset({"Find", "Explore", "Wait", "PickUp", "Put", "Open"})}
 
@@ -35,30 +47,15 @@ CATEGORY_CASES = [
             error="Could not navigate to a visible, unoccupied pose for Box",
         ),
     ),
-    (
-        "affordance_miss",
-        step(
-            "agent_1",
-            "Put",
-            KEYCHAIN,
-            to=BOX,
-            ok=False,
-            error="No valid positions to place object found",
-        ),
-    ),
-    (
-        "concurrency_conflict",
-        step(
-            "agent_1", "PickUp", KNIFE, ok=False, error=f"{KNIFE} is already held by another agent"
-        ),
-    ),
+    ("affordance_miss", step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False, error=NO_ROOM)),
+    ("concurrency_conflict", step("agent_1", "PickUp", KNIFE, ok=False, error=HELD)),
     (
         "concurrency_conflict",
         step("agent_1", "PickUp", KNIFE, ok=False, error="Knife was Already Picked Up By agent_2"),
     ),
     (
         "precondition_violation",
-        step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False, error=f"{BOX} is closed; Open it first"),
+        step("agent_1", "Put", KEYCHAIN, to=BOX, ok=False, error=CLOSED),
     ),
     ("action_failure", step("agent_1", "Explore", ok=False, error="MoveAhead blocked")),
     ("action_failure", step("agent_1", "Find", BOX, ok=False, error="Object not found")),

@@ -15,7 +15,7 @@ from cocobench_agents.models import (
     RemoteClient,
 )
 
-from .fake_openai import FakeOpenAI
+from .fake_openai import FakeOpenAI, ok
 from .llama_server import llama_server  # noqa: F401 - a fixture, re-exported for this folder
 
 FAKE_KEY_ENV = "FAKE_PROVIDER_API_KEY"
@@ -37,8 +37,6 @@ def fake_server() -> Iterator[FakeOpenAI]:
 @pytest.fixture
 def fake(fake_server: FakeOpenAI) -> FakeOpenAI:
     """The fake server, freshly programmed to answer every request with a plain success."""
-    from .fake_openai import ok
-
     return fake_server.program(default=ok())
 
 

@@ -203,18 +203,11 @@ def test_replay_falls_back_to_policy_decisions_of_items(tmp_path):
 
 
 def test_replay_folder_finds_the_episode_trajectory(tmp_path):
-    write(
-        tmp_path / "run" / "C0" / "T1" / "trajectory.json",
-        trajectory("T1", [{"agent": None, "raw_output": "C0-T1"}]),
-    )
-    write(
-        tmp_path / "run" / "C1" / "T1" / "trajectory.json",
-        trajectory("T1", [{"agent": None, "raw_output": "C1-T1"}]),
-    )
-    write(
-        tmp_path / "run" / "C0" / "T2" / "trajectory.json",
-        trajectory("T2", [{"agent": None, "raw_output": "C0-T2"}]),
-    )
+    for condition, task_id in [("C0", "T1"), ("C1", "T1"), ("C0", "T2")]:
+        write(
+            tmp_path / "run" / condition / task_id / "trajectory.json",
+            trajectory(task_id, [{"agent": None, "raw_output": f"{condition}-{task_id}"}]),
+        )
     (tmp_path / "run" / "C0" / "broken").mkdir()
     (tmp_path / "run" / "C0" / "broken" / "trajectory.json").write_text("{oops")
     spec = f"replay:{tmp_path}"

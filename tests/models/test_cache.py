@@ -10,7 +10,7 @@ import pytest
 
 from cocobench_agents.models import ModelError, ModelReply, ModelRequest, ResponseCache, cache_key
 
-from .fake_openai import ok
+from .fake_openai import BAD_REQUEST, ok
 
 MESSAGES = [{"role": "user", "content": "hello"}]
 
@@ -56,8 +56,6 @@ def test_agent_does_not_change_the_key(fake, make_client, tmp_path):
 
 
 def test_errors_are_not_cached(fake, make_client, tmp_path):
-    from .fake_openai import BAD_REQUEST
-
     fake.program(BAD_REQUEST, ok())
     client = make_client(cache_dir=tmp_path)
     with pytest.raises(ModelError):

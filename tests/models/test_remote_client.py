@@ -136,43 +136,27 @@ def test_empty_then_text_succeeds_and_sums_tokens(fake, make_client):
 # -- client errors fail fast ---------------------------------------------------------------
 
 
-def test_bad_request_fails_fast(fake, make_client):
-    fake.program(default=BAD_REQUEST)
+def refused(status: int) -> Behaviour:
+    return error(status, "nope", err_type="invalid_request_error")
+
+
+@pytest.mark.parametrize(
+    ("behaviour", "kind"),
+    [(BAD_REQUEST, "bad_request"), (CONTEXT_WINDOW, "context_window"), (refused(401), "auth"),
+     (refused(403), "auth"), (refused(404), "not_found"), (refused(422), "bad_request")],
+    ids=["400", "400-context-window", "401", "403", "404", "422"],
+)  # fmt: skip
+def test_client_errors_fail_fast(fake, make_client, behaviour, kind):
+    fake.program(default=behaviour)
     err = fails(make_client())
-    assert err.kind == "bad_request"
+    assert err.kind == kind
     assert err.retries == 0
     assert fake.count == 1
 
 
-def test_context_window_error_is_its_own_kind(fake, make_client):
-    fake.program(default=CONTEXT_WINDOW)
-    err = fails(make_client())
-    assert err.kind == "context_window"
-    assert fake.count == 1
-
-
-@pytest.mark.parametrize(
-    ("status", "kind"), [(401, "auth"), (403, "auth"), (404, "not_found"), (422, "bad_request")]
-)
-def test_other_client_errors_fail_fast(fake, make_client, status, kind):
-    fake.program(default=error(status, "nope", err_type="invalid_request_error"))
-    err = fails(make_client())
-    assert err.kind == kind
-    assert fake.count == 1
-
-
-def test_unreachable_server_is_transient(fake_key, transport):
-    from cocobench_agents.models import ModelSettings
-
-    from .conftest import CLIENTS
-
+def test_unreachable_server_is_transient(make_client):
     # Port 9 on loopback (discard) is closed on a test machine: connection refused at once.
-    settings = ModelSettings(
-        api_base="http://127.0.0.1:9/v1", api_key_env="FAKE_PROVIDER_API_KEY",
-        max_retries=1, backoff_s=0.001, backoff_max_s=0.002, timeout_s=2.0,
-        transport=transport,
-    )  # fmt: skip
-    err = fails(CLIENTS[transport]("openai/fake-model", settings))
+    err = fails(make_client(api_base="http://127.0.0.1:9/v1", max_retries=1, timeout_s=2.0))
     assert err.kind == "transient"
     assert err.retries == 1
 

@@ -13,6 +13,7 @@ from cocobench_agents.models import (
     ModelError,
     ModelPool,
     ModelRequest,
+    ModelSettings,
     redact,
     redact_obj,
 )
@@ -83,8 +84,6 @@ def test_config_errors_never_show_the_key(monkeypatch, tmp_path):
 
 
 def test_settings_repr_has_no_key(fake_key):
-    from cocobench_agents.models import ModelSettings
-
     settings = ModelSettings(api_key_env=FAKE_KEY_ENV)
     assert FAKE_KEY not in repr(settings)
     assert settings.api_key() == FAKE_KEY

@@ -13,7 +13,13 @@ from pathlib import Path
 import pytest
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import Condition, RunFolder, RunOptions, execute, plan_episodes
+from cocobench_agents.harness import (
+    Condition,
+    RunFolder,
+    RunOptions,
+    execute_and_close,
+    plan_episodes,
+)
 from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
 from tests.models.fake_openai import (
     RATE_LIMITED,
@@ -82,15 +88,8 @@ def batch(request, tmp_path: Path, monkeypatch) -> tuple[RunFolder, ByModel]:
                                  RunOptions())
         folder = RunFolder(tmp_path / "run")
         folder.create({"name": "faults"})
-        asyncio.run(execute_and_close(episodes, folder, ModelPool(settings)))
+        asyncio.run(execute_and_close(episodes, folder, ModelPool(settings), jobs=4))
         yield folder, server
-
-
-async def execute_and_close(episodes, folder: RunFolder, pool: ModelPool) -> None:
-    try:
-        await execute(episodes, folder, pool, jobs=4)
-    finally:
-        await pool.aclose()
 
 
 def test_each_fault_ends_its_episode_with_the_right_reason(batch):

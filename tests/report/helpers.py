@@ -35,3 +35,15 @@ def write_run(path: Path, lines: list[dict[str, Any]], run_json: Path | None = N
             f.write(json.dumps(line, sort_keys=True) + "\n")
         f.write(tail)
     return path
+
+
+NOT_RUN_FOLDERS = ["missing", "file", "empty"]
+
+
+def not_a_run_folder(path: Path, make: str) -> Path:
+    """A path that is not a run folder: nothing there, a file, or an empty folder."""
+    if make == "file":
+        path.write_text("{}", encoding="utf-8")
+    elif make == "empty":
+        path.mkdir()
+    return path

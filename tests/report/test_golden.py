@@ -44,9 +44,10 @@ def test_report_matches_golden_files(case: str, tmp_path: Path) -> None:
             "with COCOBENCH_UPDATE_GOLDENS=1")
 
 
-def _csv(name: str, case: str = "run_small") -> list[dict[str, str]]:
+def _csv(name: str, case: str = "run_small") -> dict[tuple[str, str], dict[str, str]]:
+    """A golden CSV's rows by (model, condition)."""
     text = (GOLDEN / case / name).read_text(encoding="utf-8")
-    return list(csv.DictReader(io.StringIO(text)))
+    return {(r["model"], r["condition"]): r for r in csv.DictReader(io.StringIO(text))}
 
 
 def _mean(values: list[float]) -> float:
@@ -56,9 +57,7 @@ def _mean(values: list[float]) -> float:
 def test_golden_numbers_match_a_direct_computation() -> None:
     """The reviewed golden CSVs agree with plain Python over results.jsonl."""
     lines = result_lines(RUN_SMALL)
-    main = {(r["model"], r["condition"]): r for r in _csv("main_results.csv")}
-    diag = {(r["model"], r["condition"]): r for r in _csv("failure_diagnostics.csv")}
-    cost = {(r["model"], r["condition"]): r for r in _csv("cost.csv")}
+    main, diag, cost = _csv("main_results.csv"), _csv("failure_diagnostics.csv"), _csv("cost.csv")
     assert len(main) == 12
     for (model, condition), row in main.items():
         eps = [e for e in lines if e["model"] == model and e["condition"] == condition]
@@ -93,15 +92,13 @@ def test_hand_checked_cells() -> None:
     """A few cells checked by hand against results.jsonl (see the review notes in
     docs/reports.md): random:1 under C0_image scored 4 of 4 construct scores
     (G_D1 1/3, K_D3 0.75, C_D2 0.5, J_D4 0.5: mean 0.5208)."""
-    main = {(r["model"], r["condition"]): r for r in _csv("main_results.csv")}
-    row = main["random:1", "C0_image"]
+    row = _csv("main_results.csv")["random:1", "C0_image"]
     assert (row["cs"], row["cs_n"]) == ("0.5208", "4")
     assert (row["d3_cs"], row["d3_cs_lo"], row["d3_cs_hi"]) == ("0.7500", "0.7500", "0.7500")
     md = (GOLDEN / "run_small" / "main_results.md").read_text(encoding="utf-8")
     assert "| random:1 | C0_image  |   4 | 0.0 [0.0, 0.0] | 0.52 [" in md
     # greedy under C0_image failed all 4 episodes; progress 0.25 on C_D2 only: 6.25 %.
-    diag = {(r["model"], r["condition"]): r for r in _csv("failure_diagnostics.csv")}
-    assert diag["greedy", "C0_image"]["progress_fail"] == "6.2500"
+    assert _csv("failure_diagnostics.csv")["greedy", "C0_image"]["progress_fail"] == "6.2500"
     # the oracle's 4 episodes all succeed with legal plans
-    legal = {(r["model"], r["condition"]): r for r in _csv("legality.csv", "merged")}
+    legal = _csv("legality.csv", "merged")
     assert legal["oracle", "OR_image"]["sr"] == legal["oracle", "OR_image"]["legal"] == "100.0000"

@@ -10,7 +10,14 @@ import pytest
 from cocobench_agents.report import NotARunFolder, build_report, compute_tables, load_runs
 from cocobench_agents.report.render import to_csv
 
-from .helpers import RUN_ORACLE, RUN_SMALL, result_lines, write_run
+from .helpers import (
+    NOT_RUN_FOLDERS,
+    RUN_ORACLE,
+    RUN_SMALL,
+    not_a_run_folder,
+    result_lines,
+    write_run,
+)
 
 
 def _tables(*runs: Path) -> dict[str, object]:
@@ -149,12 +156,8 @@ def test_run_in_progress_reports_what_is_complete(tmp_path: Path) -> None:
     assert "10/48" in (tmp_path / "out" / "index.md").read_text(encoding="utf-8")
 
 
-@pytest.mark.parametrize("make", ["missing", "file", "empty"])
+@pytest.mark.parametrize("make", NOT_RUN_FOLDERS)
 def test_not_a_run_folder(tmp_path: Path, make: str) -> None:
-    path = tmp_path / "x"
-    if make == "file":
-        path.write_text("hello", encoding="utf-8")
-    elif make == "empty":
-        path.mkdir()
+    path = not_a_run_folder(tmp_path / "x", make)
     with pytest.raises(NotARunFolder, match="x"):
         load_runs([path])

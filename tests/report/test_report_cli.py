@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 from cocobench_agents.cli.report_cmd import report_command
 
-from .helpers import RUN_ORACLE, RUN_SMALL
+from .helpers import NOT_RUN_FOLDERS, RUN_ORACLE, RUN_SMALL, not_a_run_folder
 
 
 def invoke(*args: str):
@@ -37,13 +37,9 @@ def test_default_out_is_inside_the_first_run(small_copy: Path) -> None:
     assert (small_copy / "report" / "index.md").exists()
 
 
-@pytest.mark.parametrize("make", ["missing", "file", "empty"])
+@pytest.mark.parametrize("make", NOT_RUN_FOLDERS)
 def test_not_a_run_folder_is_a_usage_error(tmp_path: Path, make: str) -> None:
-    path = tmp_path / "nope"
-    if make == "file":
-        path.write_text("{}", encoding="utf-8")
-    elif make == "empty":
-        path.mkdir()
+    path = not_a_run_folder(tmp_path / "nope", make)
     result = invoke(str(RUN_SMALL), str(path), "--out", str(tmp_path / "rep"))
     assert result.exit_code == 2
     assert str(path) in result.output and "run folder" in result.output

@@ -7,7 +7,7 @@ import importlib.util
 import io
 import random
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -54,14 +54,21 @@ def _patched(metadata: Sequence[Any], **changes: Any) -> list[dict[str, Any]]:
     return [{**dict(md), **changes} for md in metadata]
 
 
-class UnknownActionSucceeds(EmbeddedController):
-    """Reports success for actions it does not know."""
+def _misreporting(when: Callable[[str], bool], **changes: Any) -> type[EmbeddedController]:
+    """A backend whose metadata after the actions `when` picks carries `changes`."""
 
-    def step(self, action: str, agentId: int | None = None, **kwargs: Any):
-        metadata = super().step(action, agentId, **kwargs)
-        if action not in HANDLERS:
-            return _patched(metadata, lastActionSuccess=True, errorMessage="")
-        return metadata
+    class Misreporting(EmbeddedController):
+        def step(self, action: str, agentId: int | None = None, **kwargs: Any):
+            metadata = super().step(action, agentId, **kwargs)
+            return _patched(metadata, **changes) if when(action) else metadata
+
+    return Misreporting
+
+
+# Reports success for actions it does not know.
+UnknownActionSucceeds = _misreporting(
+    lambda action: action not in HANDLERS, lastActionSuccess=True, errorMessage=""
+)
 
 
 class NoActionReturn(EmbeddedController):
@@ -134,22 +141,9 @@ class JpegFrames(EmbeddedController):
         return b"\xff\xd8\xff\xe0" + super().frame(agent, width, height)[4:]
 
 
-class FailingPass(EmbeddedController):
-    def step(self, action: str, agentId: int | None = None, **kwargs: Any):
-        metadata = super().step(action, agentId, **kwargs)
-        if action == "Pass":
-            return _patched(metadata, lastActionSuccess=False, errorMessage="nope")
-        return metadata
-
-
-class TeleportAnywhere(EmbeddedController):
-    """Accepts a teleport off the floor (reports success without moving)."""
-
-    def step(self, action: str, agentId: int | None = None, **kwargs: Any):
-        metadata = super().step(action, agentId, **kwargs)
-        if action == "TeleportFull":
-            return _patched(metadata, lastActionSuccess=True, errorMessage="")
-        return metadata
+FailingPass = _misreporting("Pass".__eq__, lastActionSuccess=False, errorMessage="nope")
+# Accepts a teleport off the floor (reports success without moving).
+TeleportAnywhere = _misreporting("TeleportFull".__eq__, lastActionSuccess=True, errorMessage="")
 
 
 @pytest.mark.parametrize(("backend", "message"), [

@@ -6,12 +6,15 @@ Nothing here starts Unity or downloads a build. Tests that drive ai2thor's Pytho
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 
-from benchmark_adapter.sim.thor import ThorController, ThorOptions
+from benchmark_adapter.sim.thor import ThorController, ThorOptions, environment
+from benchmark_adapter.sim.thor.environment import Renderers
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import TaskConfig, load_task
 
@@ -25,11 +28,11 @@ def _importable(module: str) -> bool:
 
 
 HAS_AI2THOR = _importable("ai2thor")
-needs_ai2thor = pytest.mark.skipif(
-    not HAS_AI2THOR,
-    reason="ai2thor is not installed (pip install 'cocobench-agents[thor]'); these tests drive "
-    "its Python Controller/Event code over a fake server",
+AI2THOR_MISSING = (
+    "ai2thor is not installed (pip install 'cocobench-agents[thor]'); these tests drive "
+    "its Python Controller/Event code over a fake server"
 )
+needs_ai2thor = pytest.mark.skipif(not HAS_AI2THOR, reason=AI2THOR_MISSING)
 
 # The real configs live beside the repository: /work/shared/cocobench-data next to /work/main.
 TASKS = Path(__file__).resolve().parents[2].parent / "shared" / "cocobench-data" / "tasks"
@@ -39,6 +42,20 @@ needs_data = pytest.mark.skipif(
 )
 # A small two-agent config used by the contract tests.
 SMALL = "A_D1__FloorPlan1__seed0.json"
+# A Linux machine with neither Vulkan nor an X display.
+NO_RENDERER = Renderers("Linux", None, None, None, None)
+
+
+def probe_finds(monkeypatch: pytest.MonkeyPatch, found: Renderers) -> None:
+    """Make the renderer probe report `found` instead of looking at this machine."""
+    monkeypatch.setattr(environment, "probe", lambda x_display=None: found)
+
+
+def python_stdout(*args: str) -> str:
+    """Run `python *args` in a child process; its stdout, once it has exited cleanly."""
+    out = subprocess.run([sys.executable, *args], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
 
 
 @pytest.fixture
@@ -49,15 +66,21 @@ def pool() -> Iterator[ControllerPool]:
     p.close()
 
 
-@pytest.fixture
-def library():
-    """The fake Unity's scene library, holding every shared config's scene."""
+def shared_library():
+    """A fake Unity scene library holding every shared config's scene (all must be "in the
+    build" before the first start)."""
     from .fake_unity import SceneLibrary
 
     lib = SceneLibrary()
     for path in SHARED_FILES:
         lib.add(load_task(path))
     return lib
+
+
+@pytest.fixture
+def library():
+    """The fake Unity's scene library, holding every shared config's scene."""
+    return shared_library()
 
 
 @pytest.fixture

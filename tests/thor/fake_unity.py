@@ -146,7 +146,7 @@ class EmbeddedUnityServer(Server):
 
     def _wire(self, md: Mapping[str, Any]) -> dict[str, Any]:
         return {
-            **{k: md[k] for k in md},
+            **md,
             **UNITY_KEYS,
             "screenWidth": self.width,
             "screenHeight": self.height,
@@ -154,7 +154,7 @@ class EmbeddedUnityServer(Server):
 
     def _idle_agent(self) -> dict[str, Any]:
         pose = {"x": 0.0, "y": 0.9, "z": 0.0}
-        return {
+        return self._wire({
             "agentId": 0,
             "sceneName": self.scene or "",
             "agent": {
@@ -170,10 +170,7 @@ class EmbeddedUnityServer(Server):
             "lastActionSuccess": True,
             "errorMessage": "",
             "actionReturn": None,
-            **UNITY_KEYS,
-            "screenWidth": self.width,
-            "screenHeight": self.height,
-        }
+        })
 
     def _image(self, agent: int) -> bytes:
         """RGBA pixels, bottom row first, as Unity's CloudRendering sends them."""
@@ -195,7 +192,7 @@ def test_pattern(agent: int, width: int, height: int) -> np.ndarray:
 
 @functools.cache
 def _flat_frame(agent: int, width: int, height: int) -> bytes:
-    return np.flipud(test_pattern(agent, width, height)).tobytes()
+    return _bottom_up(test_pattern(agent, width, height))
 
 
 def _bottom_up(rgba: np.ndarray) -> bytes:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pickle
-import subprocess
 import sys
 
 import pytest
@@ -12,7 +11,14 @@ from benchmark_adapter.sim.backends import BACKENDS, controller_factory, make_co
 from benchmark_adapter.sim.embedded import EmbeddedController
 from benchmark_adapter.sim.thor import ThorController, ThorOptions
 
-from .conftest import HAS_AI2THOR, needs_data, shared_config
+from .conftest import (
+    HAS_AI2THOR,
+    NO_RENDERER,
+    needs_data,
+    probe_finds,
+    python_stdout,
+    shared_config,
+)
 
 
 def test_backends_are_registered_by_name():
@@ -94,22 +100,17 @@ def test_importing_the_project_does_not_import_ai2thor():
         "ThorOptions()\n"
         "print(sorted(m for m in sys.modules if m.split('.')[0] == 'ai2thor'))\n"
     )
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "[]"
+    assert python_stdout("-c", script).strip() == "[]"
 
 
 def test_check_backend_fails_fast_without_starting_anything(monkeypatch):
     from benchmark_adapter.sim.backends import check_backend
-    from benchmark_adapter.sim.thor import ThorUnavailable, environment
-    from benchmark_adapter.sim.thor.environment import Renderers
+    from benchmark_adapter.sim.thor import ThorUnavailable
 
     check_backend("embedded")
     with pytest.raises(ValueError, match="unknown backend"):
         check_backend("unity")
-    monkeypatch.setattr(
-        environment, "probe", lambda x_display=None: Renderers("Linux", None, None, None, None)
-    )
+    probe_finds(monkeypatch, NO_RENDERER)
     with monkeypatch.context() as hidden:
         hidden.setitem(sys.modules, "ai2thor", None)
         with pytest.raises(ThorUnavailable, match="not installed"):

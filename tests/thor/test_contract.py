@@ -11,18 +11,15 @@ import io
 
 import pytest
 
-pytest.importorskip(
-    "ai2thor",
-    reason="ai2thor is not installed (pip install 'cocobench-agents[thor]'); these tests drive "
-    "its Python Controller/Event code over a fake server",
-)
+from .conftest import AI2THOR_MISSING, needs_data, shared_config
+
+pytest.importorskip("ai2thor", reason=AI2THOR_MISSING)
 
 from PIL import Image
 
 from benchmark_adapter.sim.conformance import check_controller
 from benchmark_adapter.sim.embedded import EmbeddedController
 
-from .conftest import needs_data, shared_config
 from .fake_unity import test_pattern
 
 pytestmark = needs_data

@@ -7,10 +7,10 @@ import re
 import pytest
 from click.testing import CliRunner
 
-from benchmark_adapter.sim.thor import environment
-from benchmark_adapter.sim.thor.environment import Renderers
 from cocobench_agents.cli import doctor_cmd
 from cocobench_agents.cli.doctor_cmd import API_KEYS, doctor_command
+
+from .conftest import NO_RENDERER, probe_finds
 
 SECRET = "sk-test-DO-NOT-PRINT-4f9a2c"
 LINE = re.compile(r"^(ok|warn|fail)\s+\S")
@@ -55,9 +55,7 @@ def test_doctor_reports_every_check_and_never_a_key(env):
 
 def test_warnings_come_with_a_fix_and_do_not_fail(env):
     env.delenv("ANTHROPIC_API_KEY")
-    env.setattr(
-        environment, "probe", lambda x_display=None: Renderers("Linux", None, None, None, None)
-    )
+    probe_finds(env, NO_RENDERER)
     code, out = run()
     assert code == 0, out
     lines = out.splitlines()

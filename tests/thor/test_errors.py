@@ -27,10 +27,9 @@ from benchmark_adapter.sim.thor.build import BuildGuard, LocalBuild, within
 from benchmark_adapter.sim.thor.environment import Renderers, choose_platform, preflight
 from benchmark_adapter.sim.thor.loader import require_ai2thor
 
-from .conftest import needs_ai2thor, needs_data, shared_config
+from .conftest import NO_RENDERER, needs_ai2thor, needs_data, probe_finds, shared_config
 
 VULKAN = Renderers("Linux", "libvulkan.so.1", "/usr/bin/vulkaninfo", "/usr/bin/nvidia-smi", None)
-NOTHING = Renderers("Linux", None, None, None, None)
 X_ONLY = Renderers("Linux", None, None, None, ":0")
 
 
@@ -98,7 +97,7 @@ def test_wrong_ai2thor_version(monkeypatch):
 
 def test_no_vulkan_and_no_display_explains_both_platforms():
     with pytest.raises(ThorUnavailable) as caught:
-        choose_platform(ThorOptions(), NOTHING)
+        choose_platform(ThorOptions(), NO_RENDERER)
     assert "neither Vulkan nor an X display" in caught.value.problem
     for hint in ("CloudRendering", "libvulkan1", "vulkaninfo", "Linux64", "Xvfb", "DISPLAY"):
         assert hint in caught.value.remedy
@@ -147,7 +146,7 @@ def test_probe_reads_display_and_explicit_display_wins(monkeypatch):
 @needs_ai2thor
 @needs_data
 def test_no_renderer_is_reported_before_anything_starts(monkeypatch, pool):
-    monkeypatch.setattr(environment, "probe", lambda x_display=None: NOTHING)
+    probe_finds(monkeypatch, NO_RENDERER)
     with pytest.raises(ThorUnavailable, match="neither Vulkan nor an X display"):
         ThorController(shared_config(), pool=pool).reset()
     assert len(pool) == 0
@@ -202,7 +201,7 @@ def offline_home(monkeypatch, tmp_path) -> Iterator[threading.Event]:
     """An empty ~/.ai2thor, a machine with Vulkan, and a gate that hung calls wait on."""
     pytest.importorskip("ai2thor", reason="needs ai2thor's build lookup code")
     monkeypatch.setenv("HOME", str(tmp_path))
-    monkeypatch.setattr(environment, "probe", lambda x_display=None: VULKAN)
+    probe_finds(monkeypatch, VULKAN)
     gate = threading.Event()
     yield gate
     gate.set()  # let the abandoned lookup threads finish
@@ -210,6 +209,17 @@ def offline_home(monkeypatch, tmp_path) -> Iterator[threading.Event]:
 
 def thor_with(pool, **options) -> ThorController:
     return ThorController(shared_config(), ThorOptions(**options), pool=pool)
+
+
+def build_exists(monkeypatch: pytest.MonkeyPatch, missing: tuple[str, ...] = ()) -> None:
+    """ai2thor finds a CloudRendering build online whose check of this machine lacks `missing`."""
+    import ai2thor.build
+    import ai2thor.platform
+
+    monkeypatch.setattr(ai2thor.build.Build, "exists", lambda self: True)
+    monkeypatch.setattr(
+        ai2thor.platform.CloudRendering, "validate", classmethod(lambda c, r: list(missing))
+    )
 
 
 @needs_data
@@ -230,10 +240,8 @@ def test_hanging_build_lookup_times_out_with_a_way_out(monkeypatch, offline_home
 @needs_data
 def test_hanging_download_times_out(monkeypatch, offline_home, pool):
     import ai2thor.build
-    import ai2thor.platform
 
-    monkeypatch.setattr(ai2thor.build.Build, "exists", lambda self: True)
-    monkeypatch.setattr(ai2thor.platform.CloudRendering, "validate", classmethod(lambda c, r: []))
+    build_exists(monkeypatch)
     monkeypatch.setattr(ai2thor.build.Build, "download", lambda self: offline_home.wait(30))
     with pytest.raises(ThorUnavailable, match=r"downloading thor-CloudRendering-\w+ did not"):
         thor_with(pool, download_timeout=0.3).reset()
@@ -253,13 +261,11 @@ def test_no_build_available(monkeypatch, offline_home, pool):
 @needs_data
 def test_failed_download(monkeypatch, offline_home, pool):
     import ai2thor.build
-    import ai2thor.platform
 
     def refuse(self):
         raise ConnectionError("Name or service not known")
 
-    monkeypatch.setattr(ai2thor.build.Build, "exists", lambda self: True)
-    monkeypatch.setattr(ai2thor.platform.CloudRendering, "validate", classmethod(lambda c, r: []))
+    build_exists(monkeypatch)
     monkeypatch.setattr(ai2thor.build.Build, "download", refuse)
     with pytest.raises(ThorUnavailable, match="Name or service not known"):
         thor_with(pool).reset()
@@ -267,13 +273,7 @@ def test_failed_download(monkeypatch, offline_home, pool):
 
 @needs_data
 def test_build_whose_platform_cannot_run_here(monkeypatch, offline_home, pool):
-    import ai2thor.build
-    import ai2thor.platform
-
-    monkeypatch.setattr(ai2thor.build.Build, "exists", lambda self: True)
-    monkeypatch.setattr(
-        ai2thor.platform.CloudRendering, "validate", classmethod(lambda c, r: ["Vulkan missing"])
-    )
+    build_exists(monkeypatch, missing=("Vulkan missing",))
     with pytest.raises(ThorUnavailable, match="missing dependencies") as caught:
         thor_with(pool).reset()
     assert "Xvfb" in caught.value.remedy

@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import gc
 import signal
-import subprocess
-import sys
 
 import pytest
 
@@ -16,7 +14,7 @@ from benchmark_adapter.sim.thor import ThorCrashed, ThorUnavailable
 from benchmark_adapter.sim.thor import pool as pool_module
 from benchmark_adapter.sim.thor.pool import ControllerPool, install_sigterm_exit, shutdown
 
-from .conftest import needs_ai2thor, needs_data, shared_config
+from .conftest import needs_ai2thor, needs_data, python_stdout, shared_config
 
 
 def started(make_thor, library, **options):
@@ -219,9 +217,7 @@ def test_atexit_really_stops_sessions_at_interpreter_exit():
         "owner = C()\n"
         "POOL.acquire('k', owner, C)\n"
     )
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout == "stopped\n"
+    assert python_stdout("-c", script) == "stopped\n"
 
 
 WORKER_SCRIPT = """
@@ -251,11 +247,8 @@ if __name__ == "__main__":
 def test_worker_processes_stop_their_ai2thor_when_they_exit(tmp_path, start_method):
     script, log = tmp_path / "worker.py", tmp_path / "stops.log"
     script.write_text(WORKER_SCRIPT)
-    out = subprocess.run(
-        [sys.executable, str(script), str(log), start_method], capture_output=True, text=True
-    )
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "[1, 2]"  # one worker, two sessions (both still held)
+    out = python_stdout(str(script), str(log), start_method)
+    assert out.strip() == "[1, 2]"  # one worker, two sessions (both still held)
     assert log.read_text() == "stopped\n" * 2  # stopped by the worker, not by the parent
 
 

@@ -13,11 +13,9 @@ from typing import Any
 
 import pytest
 
-pytest.importorskip(
-    "ai2thor",
-    reason="ai2thor is not installed (pip install 'cocobench-agents[thor]'); these tests drive "
-    "its Python Controller/Event code over a fake server",
-)
+from .conftest import AI2THOR_MISSING, SHARED_FILES, needs_data, shared_library
+
+pytest.importorskip("ai2thor", reason=AI2THOR_MISSING)
 
 from benchmark_adapter.metrics import score_trajectory
 from benchmark_adapter.oracles import run_oracle
@@ -26,7 +24,6 @@ from benchmark_adapter.sim.thor import ThorController, ThorOptions
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import TaskConfig, load_task
 
-from .conftest import SHARED_FILES, needs_data
 from .fake_unity import SceneLibrary, fake_factory
 
 pytestmark = needs_data
@@ -35,9 +32,7 @@ pytestmark = needs_data
 @pytest.fixture(scope="module")
 def shared_thor() -> Iterator[tuple[SceneLibrary, ControllerPool, Any]]:
     """One library, pool and factory for the whole module (so one fake Unity is reused)."""
-    library = SceneLibrary()
-    for path in SHARED_FILES:  # every scene must be "in the build" before the first start
-        library.add(load_task(path))
+    library = shared_library()
     pool = ControllerPool(install_exit_hooks=False)
     yield library, pool, fake_factory(library)
     pool.close()

@@ -18,7 +18,7 @@ from benchmark_adapter.generator.ids import task_id
 from benchmark_adapter.generator.objects import SceneObject
 from benchmark_adapter.generator.oracles import oracle_stats
 from benchmark_adapter.generator.scenes import Scene
-from benchmark_adapter.generator.templates.base import Draft, TaskType
+from benchmark_adapter.generator.templates.base import Draft, TaskType, forced_put
 from benchmark_adapter.sim.embedded.affordances import affordances_of
 from benchmark_adapter.tasks.config import TaskConfig
 
@@ -67,15 +67,7 @@ def init_actions(scene: Scene, seed: int, draft: Draft) -> list[dict[str, Any]]:
     """Spawn seed, presence checks, receptacle contents, closed containers, template set-up."""
     actions: list[dict[str, Any]] = []
     if seed > 0:  # as the reference's spawn-seed rewrite; the ids are already post-spawn
-        actions.append(
-            {
-                "action": "InitialRandomSpawn",
-                "randomSeed": seed,
-                "forceVisible": False,
-                "numPlacementAttempts": 5,
-                "placeStationary": True,
-            }
-        )
+        actions.append(spawn_action(seed))
     actions += [{"action": "assert_present", "objectId": o.id} for o in draft.objects.values()]
     important = {o.id for o in draft.objects.values()}
     closed_by_stocking = set()
@@ -91,6 +83,17 @@ def init_actions(scene: Scene, seed: int, draft: Draft) -> list[dict[str, Any]]:
     return actions + draft.setup
 
 
+def spawn_action(seed: int) -> dict[str, Any]:
+    """The reference's `InitialRandomSpawn` for a spawn seed (also how `thor_scene` spawns)."""
+    return {
+        "action": "InitialRandomSpawn",
+        "randomSeed": seed,
+        "forceVisible": False,
+        "numPlacementAttempts": 5,
+        "placeStationary": True,
+    }
+
+
 def _native(action: str, object_id: str) -> dict[str, Any]:
     return {"action": action, "objectId": object_id, "forceAction": True}
 
@@ -104,15 +107,7 @@ def _stock(
     actions = [_native("OpenObject", receptacle.id)] if openable else []
     for item in contents:
         actions.append({**_native("PickupObject", item.id), "agentId": 0})
-        actions.append(
-            {
-                "action": "PutObject",
-                "objectId": receptacle.id,
-                "agentId": 0,
-                "forceAction": True,
-                "placeStationary": True,
-            }
-        )
+        actions.append(forced_put(receptacle.id))
     if openable and close:
         actions.append(_native("CloseObject", receptacle.id))
     return actions

@@ -26,6 +26,19 @@ def object_id(object_type: str, x: float, y: float, z: float) -> str:
     return f"{object_type}|{coordinate(x)}|{coordinate(y)}|{coordinate(z)}"
 
 
+def unique_object_id(
+    object_type: str, x: float, y: float, z: float, taken: set[str]
+) -> tuple[str, float]:
+    """An id no object of `taken` has, and the x it encodes: two objects on one spot are told
+    apart by nudging the later one sideways. The id is added to `taken`."""
+    oid = object_id(object_type, x, y, z)
+    while oid in taken:
+        x += 0.01
+        oid = object_id(object_type, x, y, z)
+    taken.add(oid)
+    return oid, x
+
+
 def scene_id(room: str, index: int) -> str:
     """The id of embedded scene `index` (1-based) of a room category: `EmbKitchen07`."""
     return f"{ROOM_SCENE_PREFIX[room]}{index:02d}"

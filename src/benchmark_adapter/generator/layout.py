@@ -11,7 +11,7 @@ import math
 import random
 from collections.abc import Iterator
 
-from benchmark_adapter.generator.ids import object_id
+from benchmark_adapter.generator.ids import unique_object_id
 from benchmark_adapter.generator.objects import SceneObject
 from benchmark_adapter.generator.rooms import Furniture, RoomSpec
 from benchmark_adapter.sim.embedded.affordances import affordances_of
@@ -136,9 +136,5 @@ def _attach(
 
 def _make(object_type: str, x: float, y: float, z: float, taken: set[str]) -> SceneObject:
     """A furniture object with an id no other object of the scene has."""
-    oid = object_id(object_type, x, y, z)
-    while oid in taken:  # two pieces on one spot: nudge the later one sideways
-        x += 0.01
-        oid = object_id(object_type, x, y, z)
-    taken.add(oid)
+    oid, x = unique_object_id(object_type, x, y, z, taken)
     return SceneObject(oid, object_type, round(x, 2), round(y, 2), round(z, 2), furniture=True)

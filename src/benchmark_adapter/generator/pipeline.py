@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import functools
 import os
-import random
-import zlib
 from collections.abc import Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import nullcontext
@@ -24,7 +22,12 @@ from benchmark_adapter.generator.builder import assemble
 from benchmark_adapter.generator.composition import Stratum, full_strata
 from benchmark_adapter.generator.gates import GATES, Verdict, judge
 from benchmark_adapter.generator.ids import task_id
-from benchmark_adapter.generator.scenes import SCENES_PER_ROOM, Scene, embedded_scene
+from benchmark_adapter.generator.scenes import (
+    SCENES_PER_ROOM,
+    Scene,
+    embedded_scene,
+    seeded_rng,
+)
 from benchmark_adapter.generator.templates import TASK_TYPES, TaskType, Ungroundable
 
 MAX_SEEDS = 12  # spawn seeds a stratum may draw on before the generator gives up
@@ -56,16 +59,13 @@ class StratumResult:
         return len(self.kept) >= self.stratum.count
 
 
-def _rng(*parts: object) -> random.Random:
-    return random.Random(zlib.crc32(":".join(map(str, parts)).encode()))
-
-
 def make_candidate(task_type: TaskType, scene: Scene, agents: int, seed: int) -> Candidate:
     """Ground a task type in a scene; a scene lacking what it needs gives a placement
     rejection without a config."""
     tid = task_id(task_type.cell, scene.scene_id, task_type.slug, agents, seed)
+    rng = seeded_rng(task_type.slug, scene.scene_id, agents, seed)
     try:
-        draft = task_type.ground(scene, agents, _rng(task_type.slug, scene.scene_id, agents, seed))
+        draft = task_type.ground(scene, agents, rng)
     except Ungroundable as exc:
         return Candidate(tid, None, f"placement: {exc}")
     return Candidate(tid, assemble(task_type, scene, agents, seed, draft))
@@ -75,7 +75,7 @@ def candidates(stratum: Stratum) -> Iterator[Candidate]:
     """The candidate stream of a stratum."""
     order = list(range(1, SCENES_PER_ROOM + 1))
     # A stratum-specific scene order spreads small strata over different scenes.
-    _rng(stratum.task_type, stratum.agents, stratum.room).shuffle(order)
+    seeded_rng(stratum.task_type, stratum.agents, stratum.room).shuffle(order)
     task_type = TASK_TYPES[stratum.task_type]
     for seed in range(MAX_SEEDS):
         for index in order:
@@ -88,10 +88,7 @@ def judge_all(batch: list[Candidate], pool: Executor | None, backend: str = "emb
     """Verdicts for a batch, in order."""
     configs = [c.config for c in batch if c.config is not None]
     check = functools.partial(judge, backend=backend)
-    if pool is None:
-        judged = iter(list(map(check, configs)))
-    else:
-        judged = iter(list(pool.map(check, configs, chunksize=8)))
+    judged = map(check, configs) if pool is None else pool.map(check, configs, chunksize=8)
     return [
         next(judged) if c.config is not None else Verdict(c.task_id, "placement", c.problem)
         for c in batch

@@ -13,7 +13,7 @@ import functools
 import random
 import zlib
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 from benchmark_adapter.generator.ids import scene_id
 from benchmark_adapter.generator.layout import place_furniture
@@ -82,19 +82,9 @@ class Scene:
     def _by_id(self) -> dict[str, SceneObject]:
         return {o.id: o for o in self.objects}
 
-    def to_dict(self) -> dict:
-        """The entry as plain data (for inspection and docs)."""
-        return {
-            "scene_id": self.scene_id,
-            "room": self.room,
-            "seed": self.seed,
-            "source": self.source,
-            "objects": [asdict(o) for o in self.objects],
-            "free_poses": len(self.free_poses),
-        }
 
-
-def _rng(*parts: object) -> random.Random:
+def seeded_rng(*parts: object) -> random.Random:
+    """A generator seeded from the parts' text, the same in every interpreter run."""
     # crc32 of the text, not hash(): str hashes change between interpreter runs.
     return random.Random(zlib.crc32(":".join(map(str, parts)).encode()))
 
@@ -104,8 +94,8 @@ def embedded_scene(room: str, index: int, seed: int = 0) -> Scene:
     """Embedded scene `index` (1-based) of a room category with its small objects spawned by
     `seed`; the same arguments always give the same scene."""
     spec = ROOM_SPECS[room]
-    furniture = place_furniture(spec, _rng("layout", room, index))
-    items = spawn_items(spec, furniture, _rng("spawn", room, index, seed))
+    furniture = place_furniture(spec, seeded_rng("layout", room, index))
+    items = spawn_items(spec, furniture, seeded_rng("spawn", room, index, seed))
     return Scene(scene_id(room, index), room, seed, (*furniture, *items))
 
 

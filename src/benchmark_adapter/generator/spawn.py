@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import random
 
-from benchmark_adapter.generator.ids import object_id
+from benchmark_adapter.generator.ids import unique_object_id
 from benchmark_adapter.generator.objects import SceneObject
 from benchmark_adapter.generator.rooms import SPREAD, SURFACE_TOP, RoomSpec
 from benchmark_adapter.sim.embedded.affordances import affordances_of
@@ -55,9 +55,5 @@ def _place(
     x = host.x + rng.uniform(-spread, spread)
     z = host.z + rng.uniform(-spread, spread)
     y = host.y + ON_TOP if inside else SURFACE_TOP.get(host.type, host.y + ON_TOP)
-    oid = object_id(object_type, x, y, z)
-    while oid in taken:
-        x += 0.01
-        oid = object_id(object_type, x, y, z)
-    taken.add(oid)
+    oid, x = unique_object_id(object_type, x, y, z, taken)
     return SceneObject(oid, object_type, round(x, 2), round(y, 2), round(z, 2), parent=host.id)

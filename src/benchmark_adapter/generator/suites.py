@@ -68,12 +68,14 @@ def _count(configs: list[dict[str, Any]], key: Any) -> dict[str, int]:
     return dict(sorted(Counter(key(c) for c in configs).items()))
 
 
+def config_path(config: dict[str, Any]) -> str:
+    """Where a config lies in its suite's folder: `<cell>/<task_id>.json`."""
+    return f"{config['task_family']}_{config['coordination_dim']}/{config['task_id']}.json"
+
+
 def suite_files(name: str, suites: dict[str, list[dict[str, Any]]]) -> dict[str, str]:
     """Relative path -> file text for one suite's folder."""
-    files = {
-        f"{c['task_family']}_{c['coordination_dim']}/{c['task_id']}.json": dumps(c)
-        for c in suites[name]
-    }
+    files = {config_path(c): dumps(c) for c in suites[name]}
     if name == FULL:
         files[SUBSET_FILE] = dumps(subset_document(suites[SUBSET]))
     return dict(sorted(files.items()))

@@ -14,6 +14,7 @@ from collections.abc import Iterable, Mapping
 from types import ModuleType
 from typing import Any
 
+from benchmark_adapter.generator.builder import spawn_action
 from benchmark_adapter.generator.objects import SceneObject
 from benchmark_adapter.generator.rooms import room_of_floorplan
 from benchmark_adapter.generator.scenes import Scene
@@ -85,13 +86,7 @@ def thor_scene(floor_plan: str, seed: int = 0) -> Scene:  # pragma: no cover - n
                                  {"agentMode": "default", "renderImage": False})
     try:
         if seed > 0:
-            controller.step(
-                action="InitialRandomSpawn",
-                randomSeed=seed,
-                forceVisible=False,
-                numPlacementAttempts=5,
-                placeStationary=True,
-            )
+            controller.step(**spawn_action(seed))
         return scene_from_thor_metadata(floor_plan, controller.last_event.metadata["objects"], seed)
     finally:
         shutdown(controller)

@@ -11,6 +11,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from .failures import PROTOCOL_STATUSES
+
 
 @dataclass(frozen=True)
 class ModelUsage:
@@ -39,6 +41,6 @@ def model_usage(traj: Mapping[str, Any]) -> ModelUsage | None:
         cost_usd=round(sum(float(d.get("cost_usd") or 0.0) for d in calls), 6),
         model_latency_s=round(sum(float(d.get("latency_s") or 0.0) for d in calls), 4),
         retries=sum(int(d.get("retries") or 0) for d in calls),
-        parse_errors=sum(d.get("status") in ("parse_error", "invalid_action_id") for d in calls),
+        parse_errors=sum(d.get("status") in PROTOCOL_STATUSES for d in calls),
         backend_errors=sum(d.get("status") == "backend_error" for d in calls),
     )

@@ -34,6 +34,16 @@ def _each(calls: Iterable[str]) -> Plan:
         yield c
 
 
+def _carry(agent: str, item: str, dest: str) -> list[str]:
+    """Fetch `item` and put it into/onto `dest`."""
+    return [
+        call("Find", agent, item),
+        call("PickUp", agent, item),
+        call("Find", agent, dest),
+        call("Put", agent, dest),
+    ]
+
+
 def _explore(agent: str, directions: Iterable[str]) -> list[str]:
     return [call("Explore", agent, d) for d in directions]
 
@@ -50,21 +60,16 @@ def plan_a_d1(config: TaskConfig) -> Plan:
     the lettuce. The fridge is left open (a loaded fridge cannot be closed, reference §10.2)."""
     o = config.resolve
     a1, a2 = config.agent_ids[:2]
+    fridge = o("fridge")
     yield from _each(
         [
-            call("Find", a1, o("fridge")),
-            call("Open", a1, o("fridge")),
-            call("Find", a1, o("potato")),
-            call("PickUp", a1, o("potato")),
-            call("Find", a1, o("fridge")),
-            call("Put", a1, o("fridge")),
+            call("Find", a1, fridge),
+            call("Open", a1, fridge),
+            *_carry(a1, o("potato"), fridge),
             call("Explore", a1, "back"),
             call("Find", a2, o("light")),
             call("ToggleOff", a2, o("light")),
-            call("Find", a2, o("lettuce")),
-            call("PickUp", a2, o("lettuce")),
-            call("Find", a2, o("fridge")),
-            call("Put", a2, o("fridge")),
+            *_carry(a2, o("lettuce"), fridge),
         ]
     )
 
@@ -78,13 +83,7 @@ def plan_c_d2(config: TaskConfig) -> Plan:
     for k, item in enumerate(items):
         a = agents[k % len(agents)]
         yield from _each(
-            [
-                call("Find", a, config.resolve(item)),
-                call("PickUp", a, config.resolve(item)),
-                call("Find", a, container),
-                call("Put", a, container),
-                *_explore(a, ("back", "left")),
-            ]
+            [*_carry(a, config.resolve(item), container), *_explore(a, ("back", "left"))]
         )
     last = agents[(len(items) - 1) % len(agents)]
     yield call("Find", last, container)
@@ -109,38 +108,15 @@ def plan_c_d4(config: TaskConfig) -> Plan:
             producers[k % len(producers)],
             consumers[k % len(consumers)],
         )
-        yield from _each(
-            [
-                call("Find", p, item),
-                call("PickUp", p, item),
-                call("Find", p, buffer),
-                call("Put", p, buffer),
-                *_explore(p, VACATE),
-            ]
-        )
-        yield from _each(
-            [
-                call("Find", c, item),
-                call("PickUp", c, item),
-                call("Find", c, target),
-                call("Put", c, target),
-                *_explore(c, VACATE),
-            ]
-        )
+        yield from _each([*_carry(p, item, buffer), *_explore(p, VACATE)])
+        yield from _each([*_carry(c, item, target), *_explore(c, VACATE)])
 
 
 def plan_g_d1(config: TaskConfig) -> Plan:
     """Each agent moves its own item onto its own target."""
     for i, a in enumerate(config.agent_ids, 1):
         item, target = config.resolve(f"item_{i}"), config.resolve(f"target_{i}")
-        yield from _each(
-            [
-                call("Find", a, item),
-                call("PickUp", a, item),
-                call("Find", a, target),
-                call("Put", a, target),
-            ]
-        )
+        yield from _each(_carry(a, item, target))
 
 
 def plan_h_d1(config: TaskConfig) -> Plan:
@@ -148,14 +124,7 @@ def plan_h_d1(config: TaskConfig) -> Plan:
     for i, a in enumerate(config.agent_ids, 1):
         item, drawer = config.resolve(f"item_{i}"), config.resolve(f"drawer_{i}")
         yield from _each(
-            [
-                call("Find", a, drawer),
-                call("Open", a, drawer),
-                call("Find", a, item),
-                call("PickUp", a, item),
-                call("Find", a, drawer),
-                call("Put", a, drawer),
-            ]
+            [call("Find", a, drawer), call("Open", a, drawer), *_carry(a, item, drawer)]
         )
 
 

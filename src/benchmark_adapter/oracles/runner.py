@@ -14,7 +14,7 @@ VALIDATION_MAX_STEPS = 200  # the reference's validator budget
 
 
 class NoOraclePlan(LookupError):
-    """The config's cell has no oracle plan."""
+    """No oracle plan goes by the config's `provenance.oracle` name or its cell."""
 
 
 def oracle_plan(config: TaskConfig) -> Plan:
@@ -36,7 +36,7 @@ def run_oracle(
     max_steps: int = VALIDATION_MAX_STEPS,
     frames: bool = False,
 ) -> dict[str, Any]:
-    """Run the cell's oracle; return the trajectory document."""
+    """Run the config's oracle plan; return the trajectory document."""
     episode = Episode(config, controller, frames=frames)
     episode.reset()
     plan = oracle_plan(config)

@@ -185,5 +185,5 @@ class SkillExecutor:
             if session.agent >= len(session.metadata):
                 return result.fail(f"Unknown agent {parsed.agent}")
             return skill(session, parsed)
-        except Exception as exc:  # noqa: BLE001 -  # the reference turns any error inside a skill into a failure
+        except Exception as exc:  # noqa: BLE001 - as the reference: any skill error is a failure
             return result.fail(repr(exc))

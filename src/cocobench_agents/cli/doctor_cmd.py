@@ -110,7 +110,9 @@ def core_requirements(distribution: str = "cocobench-agents") -> list[str]:
 
 
 def _ai2thor_version_check(found: str | None) -> list[Check]:
-    if found is None or found.startswith("5."):
+    from benchmark_adapter.sim.thor.loader import SUPPORTED_MAJOR
+
+    if found is None or found.startswith(SUPPORTED_MAJOR):
         return []
     return [
         Check(
@@ -131,6 +133,7 @@ def check_build_cache() -> Check:
         releases_dir,
     )
     from benchmark_adapter.sim.thor.errors import ThorUnavailable
+    from benchmark_adapter.sim.thor.options import PLATFORMS
 
     local = os.environ.get("COCOBENCH_THOR_BUILD")
     if local:
@@ -147,7 +150,7 @@ def check_build_cache() -> Check:
             "not checked: ai2thor is not installed",
             OPTIONAL_PACKAGES["ai2thor"],
         )
-    wanted = {build_name(p, commit) for p in ("CloudRendering", "Linux64", "OSXIntel64")}
+    wanted = {build_name(p, commit) for p in PLATFORMS if p != "auto"}
     cached = [p.name for p in cached_builds()]
     hits = sorted(wanted.intersection(cached))
     if hits:

@@ -29,17 +29,11 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
     """
     # Imported here: numpy and the report code load only when a report is made.
     from cocobench_agents.report import Bootstrap, NotARunFolder, ReportError, build_report
-    from cocobench_agents.report.load import check_run_folder
     from cocobench_agents.report.stats import DEFAULT_SEED
 
-    try:
-        for run in runs:
-            check_run_folder(run)
-    except NotARunFolder as exc:
-        raise click.BadParameter(str(exc), param_hint="RUN") from None
     target = Path(out) if out else Path(runs[0]) / "report"
     boot = Bootstrap(resamples=resamples, seed=DEFAULT_SEED if seed is None else seed)
-    try:
+    try:  # build_report checks every RUN before it writes anything
         summary = build_report(list(runs), target, boot=boot, plots=not no_plots,
                                condition=plot_condition)
     except NotARunFolder as exc:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 import json
 import sys
-from pathlib import Path
 from typing import Any
 
 import click
@@ -27,7 +26,7 @@ from cocobench_agents.harness import (
     RunOptions,
     WorkerError,
     available_cores,
-    execute,
+    execute_and_close,
     execute_in_workers,
     parse_conditions,
     pending_episodes,
@@ -102,7 +101,8 @@ def run_command(**kw: Any) -> None:
             execute_in_workers(todo, folder, pool.settings, jobs=kw["jobs"], workers=workers,
                                on_result=progress.episode_done)
         else:
-            asyncio.run(_execute(todo, folder, pool, kw["jobs"], progress))
+            asyncio.run(execute_and_close(todo, folder, pool, jobs=kw["jobs"],
+                                          on_result=progress.episode_done))
     except WorkerError as exc:
         stopped_early = exc  # what did finish is recorded: show it, then fail
     finally:
@@ -110,14 +110,6 @@ def run_command(**kw: Any) -> None:
     _summary(folder)
     if stopped_early is not None:
         raise click.ClickException(str(stopped_early))
-
-
-async def _execute(todo: list, folder: RunFolder, pool: ModelPool, jobs: int,
-                   progress: Progress) -> None:
-    try:
-        await execute(todo, folder, pool, jobs=jobs, on_result=progress.episode_done)
-    finally:
-        await pool.aclose()  # kept-alive connections belong to this event loop
 
 
 def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any]:
@@ -188,5 +180,5 @@ def _check_models(pool: ModelPool, models: list[str], agent_models: dict[str, st
 def _summary(folder: RunFolder) -> None:
     rows = summary_rows(folder.results())
     click.echo(table(HEADERS, rows))
-    click.echo(f"results: {Path(folder.path) / 'results.jsonl'}  (cocobench report "
+    click.echo(f"results: {folder.results_path}  (cocobench report "
                f"{folder.path} --out DIR for the paper's tables)")

@@ -10,7 +10,7 @@ from langgraph.runtime import Runtime
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decide import decide
 from cocobench_agents.graphs.nodes import continue_or_end, observe_next
-from cocobench_agents.graphs.state import TEAM, PlannerState
+from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
 from cocobench_agents.prompts import history_line
 
 POLICY = "centralized_vlm"
@@ -18,8 +18,8 @@ POLICY = "centralized_vlm"
 
 async def choose(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
     """Ask the team's model for the next action of one agent."""
-    history = (state.get("history") or {}).get(TEAM, [])
-    return {"pending": [await decide(runtime.context, None, policy=POLICY, history=history)]}
+    return {"pending": [await decide(runtime.context, None, policy=POLICY,
+                                     history=team_history(state))]}
 
 
 async def act(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
@@ -32,8 +32,7 @@ async def act(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str
         tools.stop(decision)
         return {"pending": None, "terminal_reason": decision["terminal_reason"]}
     result = tools.land(call, decision=decision)
-    team = [*(state.get("history") or {}).get(TEAM, []),
-            history_line(call, result.success, result.errorMessage)]
+    team = [*team_history(state), history_line(call, result.success, result.errorMessage)]
     return {"pending": None, "history": {TEAM: team},
             **observe_next(runtime.context, state)}
 

@@ -37,18 +37,15 @@ async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
     started = time.perf_counter()
     try:
         reply = await client.complete(request)
-    except ModelError as error:
-        return model_decision(policy=policy, model=client.name, agent=agent,
-                              step_index=tools.step_index, prompt=prompt, parsed=None,
-                              call=None, error=error)
     except Exception as exc:  # noqa: BLE001 - any client failure idles this agent only
-        error = ModelError("other", repr(exc), latency_s=time.perf_counter() - started)
+        error = exc if isinstance(exc, ModelError) else ModelError(
+            "other", repr(exc), latency_s=time.perf_counter() - started)
         return model_decision(policy=policy, model=client.name, agent=agent,
                               step_index=tools.step_index, prompt=prompt, parsed=None,
                               call=None, error=error)
     parsed = parse_reply(reply.text, [e.action_id for e in menu])
-    call = next((e.call for e in menu if e.action_id == parsed.action_id), None)
-    call = call if parsed.status == "action" else None
+    call = (next((e.call for e in menu if e.action_id == parsed.action_id), None)
+            if parsed.status == "action" else None)
     return model_decision(policy=policy, model=client.name, agent=agent,
                           step_index=tools.step_index, prompt=prompt, parsed=parsed,
                           call=call, reply=reply,

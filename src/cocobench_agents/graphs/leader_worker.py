@@ -18,10 +18,10 @@ from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decentralized import add_round, fan_out
 from cocobench_agents.graphs.decide import accepts_images
 from cocobench_agents.graphs.nodes import continue_or_end
-from cocobench_agents.graphs.state import TEAM, PlannerState
+from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
 from cocobench_agents.models.protocol import ModelError, ModelRequest
 from cocobench_agents.prompts import history_line
-from cocobench_agents.tools import prompt_hash
+from cocobench_agents.tools import prompt_hash, reply_fields
 
 POLICY = "leader"
 DIRECTIVE = re.compile(r"^\s*(agent_\d+)\s*:\s*(.+?)\s*$", re.MULTILINE)
@@ -32,7 +32,7 @@ async def lead(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[st
     ctx = runtime.context
     tools = ctx.tools
     client = ctx.client_for(None)
-    prompt, images = tools.leader_prompt(_team_history(state), accepts_images(client))
+    prompt, images = tools.leader_prompt(team_history(state), accepts_images(client))
     record: dict[str, Any] = {"policy": POLICY, "model": client.name, "agent": None,
                               "step_index": tools.step_index, "status": "plan",
                               "terminal_reason": None, "prompt_hash": prompt_hash(prompt)}
@@ -42,20 +42,11 @@ async def lead(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[st
                                                    sample_index=ctx.sample_index))
         directives = {a: text[:200] for a, text in DIRECTIVE.findall(reply.text)
                       if a in tools.agents}
-        record.update(raw_output=reply.text, latency_s=round(reply.latency_s, 4),
-                      prompt_tokens=reply.prompt_tokens,
-                      completion_tokens=reply.completion_tokens, cost_usd=reply.cost_usd,
-                      retries=reply.retries, directives=directives)
+        record.update(reply_fields(reply), directives=directives)
     except ModelError as error:  # a silent leader leaves the workers on their own
         record.update(status="backend_error", error=str(error), error_kind=error.kind)
     tools.record(record)
     return {"directives": directives}
-
-
-def _team_history(state: PlannerState) -> list[str]:
-    """Every landed call of the team, oldest first (workers keep their own histories)."""
-    history = state.get("history") or {}
-    return history.get(TEAM, [])
 
 
 async def remember_team(state: PlannerState, runtime: Runtime[PlannerContext]

@@ -29,3 +29,8 @@ class PlannerState(TypedDict, total=False):
     pending: Annotated[list[dict[str, Any]], collect]  # this step's / round's decisions
     directives: dict[str, str]  # leader–worker: the leader's instruction per agent
     terminal_reason: str | None
+
+
+def team_history(state: PlannerState) -> list[str]:
+    """The team-wide history (centralized planner, leader), oldest first."""
+    return (state.get("history") or {}).get(TEAM, [])

@@ -10,7 +10,8 @@ import importlib
 from typing import Any
 
 _EXPORTS = {
-    "execute": "batch", "infra_error_record": "batch", "run_one": "batch",
+    "execute": "batch", "execute_and_close": "batch", "infra_error_record": "batch",
+    "run_one": "batch",
     "Condition": "plan", "EpisodeKey": "store", "PlanError": "plan", "PlannedEpisode": "plan",
     "RunOptions": "plan", "parse_conditions": "plan", "plan_episodes": "plan",
     "Progress": "progress", "episode_line": "progress",

@@ -15,6 +15,7 @@ from typing import Any
 from cocobench_agents.episode_runner import ClientFactory, run_episode
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.store import RunFolder
+from cocobench_agents.models import ModelPool
 from cocobench_agents.models.secrets import redact
 
 ResultCallback = Callable[[dict[str, Any]], None]
@@ -38,6 +39,15 @@ async def execute(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: C
 
     # Tasks take the gate in creation order.
     await asyncio.gather(*(one(p) for p in longest_first(episodes)))
+
+
+async def execute_and_close(episodes: Sequence[PlannedEpisode], folder: RunFolder,
+                            pool: ModelPool, **options: Any) -> None:
+    """`execute`, then close the pool: its kept-alive connections belong to this event loop."""
+    try:
+        await execute(episodes, folder, pool, **options)
+    finally:
+        await pool.aclose()
 
 
 def longest_first(episodes: Sequence[PlannedEpisode]) -> list[PlannedEpisode]:

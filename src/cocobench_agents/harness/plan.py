@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 
 from benchmark_adapter.tasks import TaskConfig
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import PLANNERS, planner_spec
 from cocobench_agents.harness.store import EpisodeKey
+from cocobench_agents.prompts import DEFAULT_SUITE
 
 OBS_MODES = ("image", "blind")
 PAPER_CODES = ("C0", "D0", "D1")  # the paper's architectures, as in run_eval.sh
@@ -60,7 +60,7 @@ class RunOptions:
     """Episode options shared by the whole run."""
 
     backend: str = "embedded"
-    prompt_suite: str = "cocobench-v1"
+    prompt_suite: str = DEFAULT_SUITE
     max_steps: int | None = None
     stable_ids: bool = False
     agent_models: dict[str, str] = field(default_factory=dict)  # heterogeneous teams
@@ -85,21 +85,21 @@ def plan_episodes(tasks: list[TaskConfig], models: list[str], conditions: list[C
                     key = EpisodeKey(_model_label(model, cond), cond.name, config.task_id, epoch)
                     if key not in seen:  # the oracle needs no model: plan it once
                         seen.add(key)
-                        spec = _spec(config, model, cond, epoch, options)
-                        out.append(PlannedEpisode(key, dataclasses.replace(
-                            spec, episode_key=key.folder().removeprefix("episodes/"))))
+                        out.append(PlannedEpisode(key, _spec(key, config, model, cond,
+                                                             options)))
     return out
 
 
-def _spec(config: TaskConfig, model: str, cond: Condition, epoch: int, options: RunOptions
-          ) -> EpisodeSpec:
+def _spec(key: EpisodeKey, config: TaskConfig, model: str, cond: Condition,
+          options: RunOptions) -> EpisodeSpec:
     models = {DEFAULT_MODEL_KEY: model}
     if planner_spec(cond.planner).decentralized:
         models.update(options.agent_models)
     return EpisodeSpec(config=config, planner=cond.planner, models=models,
                        obs_mode=cond.obs_mode, prompt_suite=options.prompt_suite,
                        backend=options.backend, max_steps=options.max_steps,
-                       stable_ids=options.stable_ids, sample_index=epoch)
+                       stable_ids=options.stable_ids, sample_index=key.epoch,
+                       episode_key=key.folder().removeprefix("episodes/"))
 
 
 def _model_label(model: str, cond: Condition) -> str:

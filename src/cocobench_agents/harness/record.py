@@ -21,8 +21,8 @@ PACKAGES = ("cocobench-agents", "langgraph", "litellm", "pydantic", "pillow", "a
 def run_record(out: str, request: dict[str, Any], settings: ModelSettings,
                argv: Sequence[str]) -> dict[str, Any]:
     """Everything needed to reproduce the run (no secrets)."""
-    suite = load_prompt_suite(request["options"].prompt_suite)
     options = request["options"]
+    suite = load_prompt_suite(options.prompt_suite)
     return {
         "name": Path(out).name,
         "created_at": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
@@ -66,8 +66,7 @@ def _package_versions() -> dict[str, str]:
 def pending_episodes(episodes: Sequence[PlannedEpisode], folder: RunFolder, *,
                      retry_errors: bool = False) -> list[PlannedEpisode]:
     """The planned episodes without a result line (plus retryable ones, when asked)."""
-    done = {}
-    for record in folder.results():
-        done[result_key(record)] = record  # a later line (a retry) supersedes an earlier one
+    # A later line (a retry) supersedes an earlier one.
+    done = {result_key(record): record for record in folder.results()}
     return [p for p in episodes
             if p.key not in done or (retry_errors and is_retryable(done[p.key]))]

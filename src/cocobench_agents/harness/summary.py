@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+from cocobench_agents.harness.store import result_key
+
 DIMS = ("D1", "D2", "D3", "D4")
 HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DIMS), "legal",
            "errors")
@@ -21,10 +23,7 @@ def summary_rows(records: Iterable[dict[str, Any]]) -> list[list[Any]]:
 
 def latest(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     """The last line of each episode (a retry supersedes the first attempt)."""
-    by_key = {}
-    for r in records:
-        by_key[(r["model"], r["condition"], r["task_id"], r.get("epoch") or 0)] = r
-    return list(by_key.values())
+    return list({result_key(r): r for r in records}.values())
 
 
 def _row(model: str, condition: str, rows: list[dict[str, Any]]) -> list[Any]:

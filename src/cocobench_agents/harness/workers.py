@@ -20,7 +20,7 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.harness.batch import ResultCallback, execute, longest_first
+from cocobench_agents.harness.batch import ResultCallback, execute_and_close, longest_first
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.store import RunFolder
 from cocobench_agents.models import ModelPool, ModelSettings
@@ -92,17 +92,9 @@ def _work(episodes: list[PlannedEpisode], folder_path: Path, settings: ModelSett
     # The parent owns Ctrl-C (it stops the workers); a worker must not outlive it either.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent()
-    asyncio.run(_execute_share(episodes, RunFolder(folder_path), settings, jobs, send))
+    asyncio.run(execute_and_close(episodes, RunFolder(folder_path), ModelPool(settings),
+                                  jobs=jobs, store_result=send.send))
     send.close()
-
-
-async def _execute_share(episodes: list[PlannedEpisode], folder: RunFolder,
-                         settings: ModelSettings, jobs: int, send: Connection) -> None:
-    pool = ModelPool(settings)
-    try:
-        await execute(episodes, folder, pool, jobs=jobs, store_result=send.send)
-    finally:
-        await pool.aclose()
 
 
 def _share(total: int, index: int, parts: int) -> int:

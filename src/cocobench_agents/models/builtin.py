@@ -74,8 +74,8 @@ class GreedyClient:
     """Picks the menu entry whose skill ranks lowest in `GREEDY_SKILL_ORDER` (the first such
     entry in menu order; unknown skills rank last); replies ``ACTION: <id>``, or
     ``ACTION: DONE`` on an empty menu."""
-    accepts_images = False  # built-ins never look at frames: don't render them
 
+    accepts_images = False  # built-ins never look at frames: don't render them
 
     def __init__(self, name: str = "greedy") -> None:
         self.name = name
@@ -98,8 +98,8 @@ class RandomClient:
     """A uniform, seeded choice from the menu, never DONE (``ACTION: DONE`` only when the
     menu is empty). The stream depends on the seed, the episode, the agent and the request's
     `sample_index`, so every agent of every episode and sample is reproducible on its own."""
-    accepts_images = False  # built-ins never look at frames: don't render them
 
+    accepts_images = False  # built-ins never look at frames: don't render them
 
     def __init__(
         self, name: str = "random", *, seed: int = 0, episode: str = "", agent: str | None = None
@@ -184,8 +184,8 @@ class Script:
 
 class ScriptedClient:
     """Replies from a `Script`, in order; ``ACTION: DONE`` once they run out."""
-    accepts_images = False  # built-ins never look at frames: don't render them
 
+    accepts_images = False  # built-ins never look at frames: don't render them
 
     def __init__(self, name: str, replies: Sequence[str]) -> None:
         self.name = name

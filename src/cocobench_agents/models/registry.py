@@ -129,14 +129,8 @@ class ModelPool:
 
     def _validate_remote(self, spec: str) -> None:
         s = self.settings
-        if s.transport == "http" and not spec.startswith(OPENAI_PREFIX):
-            raise ModelConfigError(
-                spec,
-                "the http transport speaks the OpenAI chat-completions API only: name the "
-                f"model {OPENAI_PREFIX}NAME, or use --transport litellm for other providers",
-            )
         if s.transport == "http":
-            preload(spec)
+            self._validate_http_model(spec)
         else:
             self._validate_litellm_model(spec)
         if s.api_key_env:
@@ -147,25 +141,33 @@ class ModelPool:
             return
         if is_local_url(s.api_base):
             return  # local servers (llama.cpp, vLLM, Ollama) rarely check keys
-        if s.transport == "http":
-            if not os.environ.get(OPENAI_KEY_ENV):
-                raise ModelConfigError(
-                    spec, f"no API key: set {OPENAI_KEY_ENV} in the environment "
-                    "(or name the variable holding the key with api_key_env)")
-            return
-        litellm = import_litellm()
-        try:
-            missing = litellm.validate_environment(model=spec, api_base=s.api_base).get(
-                "missing_keys"
-            )
-        except Exception:  # noqa: BLE001 - a provider LiteLLM cannot check is not our error
-            return
+        missing = self._missing_keys(spec)
         if missing:
             raise ModelConfigError(
                 spec,
                 f"no API key: set {' and '.join(missing)} in the environment "
                 "(or name the variable holding the key with api_key_env)",
             )
+
+    def _missing_keys(self, spec: str) -> list[str]:
+        """The provider's key variables that are not set (none when it cannot be told)."""
+        if self.settings.transport == "http":
+            return [] if os.environ.get(OPENAI_KEY_ENV) else [OPENAI_KEY_ENV]
+        litellm = import_litellm()
+        try:
+            env = litellm.validate_environment(model=spec, api_base=self.settings.api_base)
+            return list(env.get("missing_keys") or [])
+        except Exception:  # noqa: BLE001 - a provider LiteLLM cannot check is not our error
+            return []
+
+    def _validate_http_model(self, spec: str) -> None:
+        if not spec.startswith(OPENAI_PREFIX):
+            raise ModelConfigError(
+                spec,
+                "the http transport speaks the OpenAI chat-completions API only: name the "
+                f"model {OPENAI_PREFIX}NAME, or use --transport litellm for other providers",
+            )
+        preload(spec)
 
     def _validate_litellm_model(self, spec: str) -> None:
         # Also imports LiteLLM (seconds) before episodes start rather than during the first.

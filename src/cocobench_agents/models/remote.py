@@ -114,7 +114,7 @@ class RemoteClient:
                 return hit
         async with self._semaphore():
             reply = await self._call(messages, params)
-        if self.cache is not None and key is not None:
+        if key is not None:  # set only when there is a cache
             self.cache.put(key, reply, model=self.model, sample_index=request.sample_index)
         return reply
 

@@ -122,8 +122,8 @@ class ReplaySource:
 class ReplayClient:
     """Answers one agent of one episode with its recorded replies, in order; raises
     `ModelError` (kind ``other``) when none is left or no trajectory matches the episode."""
-    accepts_images = False  # built-ins never look at frames: don't render them
 
+    accepts_images = False  # built-ins never look at frames: don't render them
 
     def __init__(self, name: str, source: ReplaySource, *, episode: str, agent: str | None):
         self.name = name

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import ipaddress
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
@@ -137,23 +137,9 @@ class ModelSettings:
 
     def to_record(self) -> dict[str, Any]:
         """A JSON-safe description for run metadata: no key, only the variable's name."""
-        record = {
-            "api_base": self.api_base,
-            "api_key_env": self.api_key_env,
-            "timeout_s": self.timeout_s,
-            "max_retries": self.max_retries,
-            "max_concurrency": self.max_concurrency,
-            "temperature": self.temperature,
-            "max_tokens": self.max_tokens,
-            "extra_params": _json_safe(self.extra_params),
-            "grammar": self.grammar,
-            "cache_dir": None if self.cache_dir is None else str(self.cache_dir),
-            "seed": self.seed,
-            "backoff_s": self.backoff_s,
-            "backoff_max_s": self.backoff_max_s,
-            "max_reply_chars": self.max_reply_chars,
-            "transport": self.transport,
-        }
+        record = {f.name: getattr(self, f.name) for f in fields(self)}
+        record["extra_params"] = _json_safe(self.extra_params)
+        record["cache_dir"] = None if self.cache_dir is None else str(self.cache_dir)
         # extra_params may carry headers or tokens a user put there by hand.
         return redact_obj(record, [self.api_key()])  # type: ignore[return-value]
 

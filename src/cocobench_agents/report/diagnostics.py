@@ -12,10 +12,8 @@ from cocobench_agents.report.stats import (
     total,
 )
 from cocobench_agents.report.table import Column, Table
-from cocobench_agents.report.tables import Ctx
+from cocobench_agents.report.tables import ID_COLUMNS, Ctx
 
-ID_COLUMNS = [Column("model", "Model"), Column("condition", "Condition"),
-              Column("n", "n", "int")]
 FLAGS = (("dep", "Dep"), ("occ", "Occ"), ("aff", "Aff"), ("ill", "Ill"))
 POOLED = "(all)"
 

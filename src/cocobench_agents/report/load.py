@@ -65,20 +65,28 @@ class RunInfo:
     torn_tail: bool  # an incomplete last line was skipped
     episodes: int  # distinct episodes after retries
     infra_errors: int  # among those episodes
-    superseded: int  # lines replaced by a later line of the same run
+
+    @property
+    def superseded(self) -> int:
+        """Lines replaced by a later line of the same run."""
+        return self.lines - self.episodes
+
+    @property
+    def plan(self) -> Mapping[str, Any]:
+        return self.record.get("plan") or {}
 
     @property
     def models(self) -> list[str]:
-        return list(self.record.get("plan", {}).get("models") or [])
+        return list(self.plan.get("models") or [])
 
     @property
     def conditions(self) -> list[str]:
-        return list(self.record.get("plan", {}).get("conditions") or [])
+        return list(self.plan.get("conditions") or [])
 
     @property
     def planned(self) -> int | None:
         """Episodes the run's plan asked for (None when run.json does not say)."""
-        plan = self.record.get("plan") or {}
+        plan = self.plan
         tasks, models, conds = plan.get("task_ids"), plan.get("models"), plan.get("conditions")
         if not (tasks and models and conds):
             return None
@@ -137,7 +145,7 @@ class ReportData:
 
     def obs_modes(self) -> list[str]:
         modes = _unique(split_condition(c)[1] for c in self.conditions)
-        return sorted(modes, key=lambda m: (OBS_ORDER.index(m) if m in OBS_ORDER else 9, m))
+        return sorted(modes, key=lambda m: (_obs_rank(m), m))
 
 
 def split_condition(condition: str) -> tuple[str, str]:
@@ -212,8 +220,7 @@ def _read_run(path: Path) -> tuple[RunInfo, dict[tuple, dict[str, Any]]]:
     info = RunInfo(
         path=path, name=str(record.get("name") or path.resolve().name), record=record,
         lines=lines, torn_tail=_torn_tail(path / RESULTS), episodes=len(records),
-        infra_errors=sum(1 for r in records.values() if r.get("infra_error")),
-        superseded=lines - len(records))
+        infra_errors=sum(1 for r in records.values() if r.get("infra_error")))
     return info, records
 
 
@@ -298,6 +305,11 @@ def _order_conditions(conditions: list[str]) -> list[str]:
 
     def key(condition: str) -> tuple[int, int, str]:
         arch, obs = split_condition(condition)
-        return archs.index(arch), OBS_ORDER.index(obs) if obs in OBS_ORDER else 9, obs
+        return archs.index(arch), _obs_rank(obs), obs
 
     return sorted(conditions, key=key)
+
+
+def _obs_rank(mode: str) -> int:
+    """Image before blind, any other mode after them."""
+    return OBS_ORDER.index(mode) if mode in OBS_ORDER else len(OBS_ORDER)

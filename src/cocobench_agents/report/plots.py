@@ -17,9 +17,10 @@ from cocobench_agents.report.load import DIMENSIONS
 from cocobench_agents.report.render import PlotEntry
 from cocobench_agents.report.stats import Estimate
 from cocobench_agents.report.table import Table
+from cocobench_agents.report.tables import GROUPS, group_prefix
 
 DPI = 120
-GROUP_LABELS = ("Overall", *DIMENSIONS)
+GROUP_LABELS = ("Overall", *DIMENSIONS)  # the labels of tables.GROUPS
 INSTALL_HINT = ("matplotlib is not installed, so no plots were written: "
                 "pip install matplotlib")
 METADATA = {"Software": None}
@@ -37,11 +38,6 @@ def _matplotlib() -> Any:
     except ImportError as exc:
         raise PlotsUnavailable(INSTALL_HINT) from exc
     return matplotlib
-
-
-def _group_keys(group: str) -> tuple[str, str]:
-    prefix = "" if group == "Overall" else f"{group.lower()}_"
-    return f"{prefix}sr", f"{prefix}cs"
 
 
 def _value(est: Any, scale: float = 1.0) -> tuple[float, float, float]:
@@ -113,7 +109,7 @@ def _sr_cs_figure(path: Path, title: str, series: list[tuple[str, dict[str, Any]
             axes, ("sr", "cs"), ((("SR change (pp)" if delta else "SR (%)"), 100.0),
                                  (("CS change" if delta else "CS"), 1.0))):
         _bars(ax, GROUP_LABELS,
-              [(name, [rec.get(_group_keys(g)[metric == "cs"]) for g in GROUP_LABELS])
+              [(name, [rec.get(f"{group_prefix(g)[0]}{metric}") for g in GROUPS])
                for name, rec in series], scale, ylabel)
         if not delta:
             ax.set_ylim(0, 105 if metric == "sr" else 1.05)

@@ -14,8 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from cocobench_agents.report.load import ReportData, RunInfo
-from cocobench_agents.report.stats import Bootstrap, Estimate
+from cocobench_agents.report.load import INFRA_KIND, ReportData, RunInfo
+from cocobench_agents.report.stats import NA, Bootstrap, Estimate
 from cocobench_agents.report.table import KINDS, Column, Table
 
 NA_TEXT = "NA"
@@ -89,7 +89,7 @@ def _csv_number(value: float | None, column: Column) -> str:
 
 def _csv_cells(column: Column, value: Any) -> list[str]:
     if column.has_ci:
-        est = value if isinstance(value, Estimate) else Estimate(None, None, None, 0)
+        est = value if isinstance(value, Estimate) else NA
         return [_csv_number(est.value, column), _csv_number(est.lo, column),
                 _csv_number(est.hi, column), str(est.n)]
     if column.kind in KINDS:
@@ -126,8 +126,7 @@ def _run_row(run: RunInfo) -> list[str]:
     if run.superseded:
         notes.append(f"{run.superseded} retried lines superseded")
     return [run.name, str(record.get("created_at") or ""), ", ".join(run.models),
-            ", ".join(run.conditions), ", ".join(map(str, record.get("plan", {})
-                                                     .get("sources") or [])),
+            ", ".join(run.conditions), ", ".join(map(str, run.plan.get("sources") or [])),
             str(run.episodes), status, str(run.infra_errors), "; ".join(notes)]
 
 
@@ -141,7 +140,7 @@ def index_markdown(data: ReportData, tables: Sequence[Table], plots: Sequence[Pl
                    boot: Bootstrap, plot_note: str | None) -> str:
     """The report's front page: runs, what was counted, links to tables and plots."""
     ep = data.episodes
-    infra = int((ep.text["failure_kind"] == "infra_error").sum()) if len(ep) else 0
+    infra = int((ep.text["failure_kind"] == INFRA_KIND).sum())
     lines = ["# CoCoBench report", "",
              f"{len(ep)} episodes of {len(data.models)} model(s) under "
              f"{len(data.conditions)} condition(s), from {len(data.runs)} run(s)"

@@ -192,11 +192,10 @@ def correlation_matrix(columns: Sequence[Sequence[float] | np.ndarray],
             n = int(both.sum())
             r = _pearson(data[both, i], data[both, j]) if n >= 3 else None
             if i == j:
-                out[i][i] = Estimate(None if r is None else 1.0, None if r is None else 1.0,
-                                     None if r is None else 1.0, n)
+                one = None if r is None else 1.0
+                out[i][i] = Estimate(one, one, one, n)
                 continue
-            out[i][j] = out[j][i] = Estimate(r, None if r is None else r,
-                                             None if r is None else r, n)
+            out[i][j] = out[j][i] = Estimate(r, r, r, n)
             if r is not None:
                 m = both.astype(np.float64)
                 x, y = filled[:, i] * m, filled[:, j] * m

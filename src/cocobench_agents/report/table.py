@@ -5,8 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from cocobench_agents.report.stats import Estimate
-
 #: Column kinds and how their values are shown (Markdown decimals, CSV decimals, scale).
 KINDS: dict[str, tuple[int, int, float]] = {
     "pct": (1, 4, 100.0),  # a proportion shown in percent
@@ -58,7 +56,3 @@ class Table:
             if all(record.get(k) == v for k, v in match.items()):
                 return record
         return None
-
-    def estimate(self, record: dict[str, Any], key: str) -> Estimate | None:
-        cell = record.get(key)
-        return cell if isinstance(cell, Estimate) else None

@@ -21,6 +21,9 @@ from cocobench_agents.report.table import Column, Table
 BASELINE_ARCH = "C0"
 TEAM_SIZES = (2, 3, 4)
 GROUPS = (None, *DIMENSIONS)  # None: all dimensions
+#: The leading columns of a table with one row per model and condition.
+ID_COLUMNS = [Column("model", "Model"), Column("condition", "Condition"),
+              Column("n", "n", "int")]
 
 
 @dataclass
@@ -45,9 +48,6 @@ class Ctx:
                 if mask.any():
                     yield model, condition, mask
 
-    def dim_mask(self, group: str | None) -> np.ndarray:
-        return self.ep.mask(dim=group)
-
 
 def group_prefix(group: str | None) -> tuple[str, str]:
     """(CSV key prefix, Markdown header prefix) of a dimension group."""
@@ -66,7 +66,7 @@ def sr_cs_columns() -> list[Column]:
 def sr_cs_cells(ctx: Ctx, mask: np.ndarray) -> list[Estimate]:
     out = []
     for group in GROUPS:
-        m = mask & ctx.dim_mask(group)
+        m = mask & ctx.ep.mask(dim=group)
         out += [ctx.mean("success", m), ctx.mean("cs", m)]
     return out
 
@@ -78,8 +78,7 @@ def main_results(ctx: Ctx) -> Table:
         "SR = task success rate (%); CS = mean construct score (0-1) over the episodes whose "
         "own-dimension score is scored (gated NA scores excluded; n shown). 95% bootstrap "
         "intervals in brackets. The paper's Table 1 is the C0_image rows.",
-        [Column("model", "Model"), Column("condition", "Condition"),
-         Column("n", "n", "int"), *sr_cs_columns()])
+        [*ID_COLUMNS, *sr_cs_columns()])
     for model, condition, mask in ctx.cells():
         table.rows.append([model, condition, int(mask.sum()), *sr_cs_cells(ctx, mask)])
     return table
@@ -120,18 +119,16 @@ def _factor_table(ctx: Ctx, *, name: str, title: str, caption: str, factor: str,
     ep = ctx.ep
     for model in ctx.data.models:
         in_model = ep.mask(model=model)
-        for level in levels:
-            mask = in_model & ep.mask(**{factor: level})
+        masks = {level: in_model & ep.mask(**{factor: level}) for level in levels}
+        for level, mask in masks.items():
             if mask.any():
                 table.rows.append([model, level, int(mask.sum()), *sr_cs_cells(ctx, mask)])
-        if baseline is None or not (in_model & ep.mask(**{factor: baseline})).any():
+        if baseline is None or not masks[baseline].any():
             continue
-        for level in levels:
+        for level, mask in masks.items():
             if level == baseline:
                 continue
-            mask = in_model & ep.mask(**{factor: level})
-            ia, ib = paired_indices(ctx, mask, in_model & ep.mask(**{factor: baseline}),
-                                    pair_by)
+            ia, ib = paired_indices(ctx, mask, masks[baseline], pair_by)
             if ia.size:
                 table.rows.append([model, f"{level} - {baseline}", int(ia.size),
                                    *delta_cells(ctx, ia, ib)])

@@ -30,10 +30,7 @@ def model_decision(*, policy: str, model: str, agent: str | None, step_index: in
         "prompt_hash": prompt_hash(prompt),
     }
     if reply is not None:
-        record.update(raw_output=reply.text, latency_s=round(reply.latency_s, 4),
-                      prompt_tokens=reply.prompt_tokens,
-                      completion_tokens=reply.completion_tokens,
-                      cost_usd=reply.cost_usd, retries=reply.retries, cached=reply.cached)
+        record.update(reply_fields(reply), cached=reply.cached)
     if error is not None:
         record.update(error=str(error), error_kind=error.kind, retries=error.retries,
                       latency_s=round(error.latency_s, 4))
@@ -42,6 +39,13 @@ def model_decision(*, policy: str, model: str, agent: str | None, step_index: in
     if message:
         record["message"] = message
     return record
+
+
+def reply_fields(reply: ModelReply) -> dict[str, Any]:
+    """What a decision record keeps of a model's reply: its text, latency, usage, retries."""
+    return {"raw_output": reply.text, "latency_s": round(reply.latency_s, 4),
+            "prompt_tokens": reply.prompt_tokens, "completion_tokens": reply.completion_tokens,
+            "cost_usd": reply.cost_usd, "retries": reply.retries}
 
 
 def stop_decision(*, policy: str, model: str | None, agent: str | None, step_index: int,

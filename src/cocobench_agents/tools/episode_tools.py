@@ -68,10 +68,6 @@ class EpisodeTools:
         self.snapshot = self.episode.observe()
         return self.snapshot
 
-    def menu(self, agent: str | None = None) -> list[MenuEntry]:
-        """The menu shown to `agent` (all agents' entries for a centralized planner)."""
-        return self._menu_view(agent).entries
-
     def menu_options(self, agent: str | None = None) -> tuple[MenuOption, ...]:
         """`agent`'s menu as model clients see it."""
         return self._menu_view(agent).options

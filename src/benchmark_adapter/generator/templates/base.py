@@ -174,3 +174,18 @@ def numbered_names(objects: Sequence[SceneObject]) -> list[str]:
 def on_goals(pairs: Iterable[tuple[str, str]]) -> list[dict[str, Any]]:
     """`on` predicates for (object alias, receptacle alias) pairs."""
     return [{"predicate": "on", "object": o, "receptacle": r} for o, r in pairs]
+
+
+# -- init actions ------------------------------------------------------------------------
+
+
+def forced_put(receptacle_id: str) -> dict[str, Any]:
+    """The init action putting what agent 0 holds on or in a receptacle, as the reference's
+    K generator records it."""
+    return {
+        "action": "PutObject",
+        "objectId": receptacle_id,
+        "agentId": 0,
+        "forceAction": True,
+        "placeStationary": True,
+    }

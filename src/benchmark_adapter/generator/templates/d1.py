@@ -7,7 +7,9 @@ makespan is the balanced optimum; the builder writes it as `optimal_makespan`.
 from __future__ import annotations
 
 import random
+from collections.abc import Sequence
 
+from benchmark_adapter.generator.objects import SceneObject
 from benchmark_adapter.generator.scenes import Scene
 from benchmark_adapter.generator.templates.base import (
     FOODS,
@@ -36,6 +38,16 @@ SORT_TARGETS = {
     "bathroom": ("CounterTop", "Shelf", "Toilet", "TowelHolder", "ToiletPaperHanger",
                  "SideTable", "Dresser", "Bathtub"),
 }
+
+
+def _paired(
+    items: Sequence[SceneObject], places: Sequence[SceneObject], place_alias: str
+) -> dict[str, SceneObject]:
+    """`item_k` and `<place_alias>_k` for each item and its place, pair by pair (config order)."""
+    objects = {}
+    for i, (item, place) in enumerate(zip(items, places), 1):
+        objects[f"item_{i}"], objects[f"{place_alias}_{i}"] = item, place
+    return objects
 
 
 def store_groceries(scene: Scene, agents: int, rng: random.Random) -> Draft:
@@ -94,9 +106,7 @@ def sort_and_store(scene: Scene, agents: int, rng: random.Random) -> Draft:
         target = rng.choice(options)
         targets.append(target)
         used_types.add(target.type)
-    objects = {}
-    for i, (item, target) in enumerate(zip(items, targets), 1):
-        objects[f"item_{i}"], objects[f"target_{i}"] = item, target
+    objects = _paired(items, targets, "target")
     pairs = [f"the {i.type} on the {t.type}" for i, t in zip(items, targets)]
     return Draft(
         task_name=f"{scene.room}_parallel_sorting",
@@ -125,9 +135,7 @@ def tidy_drawers(scene: Scene, agents: int, rng: random.Random) -> Draft:
     """Each agent opens its own drawer and stores its own item."""
     drawers = sorted(pick_furniture(scene, rng, ("Drawer",), agents), key=lambda d: d.id)
     items = pick_loose(scene, rng, agents)
-    objects = {}
-    for i, (item, drawer) in enumerate(zip(items, drawers), 1):
-        objects[f"item_{i}"], objects[f"drawer_{i}"] = item, drawer
+    objects = _paired(items, drawers, "drawer")
     drawer_names = numbered_names(drawers)
     pairs = [f"the {i.type} in {d}" for i, d in zip(items, drawer_names)]
     aliases = [f"drawer_{i}" for i in range(1, agents + 1)]

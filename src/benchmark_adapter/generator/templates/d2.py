@@ -90,7 +90,7 @@ def stock_cabinet(scene: Scene, agents: int, rng: random.Random) -> Draft:
 
 def load_in_order(scene: Scene, agents: int, rng: random.Random) -> Draft:
     """Load personal objects into a box, then close it."""
-    boxes = [b for b in scene.loose("Box")]
+    boxes = scene.loose("Box")
     if not boxes:
         raise Ungroundable("no Box in plain sight")
     box = rng.choice(boxes)

@@ -19,6 +19,7 @@ from benchmark_adapter.generator.templates.base import (
     TaskType,
     Ungroundable,
     agent_ids,
+    forced_put,
     only,
     pick_furniture,
     series,
@@ -52,13 +53,7 @@ def _relocate(object_id: str, counter_id: str) -> list[dict]:
     generator records them for a knife or food the agents could not reach."""
     return [
         {"action": "PickupObject", "objectId": object_id, "agentId": 0, "forceAction": True},
-        {
-            "action": "PutObject",
-            "objectId": counter_id,
-            "agentId": 0,
-            "forceAction": True,
-            "placeStationary": True,
-        },
+        forced_put(counter_id),
     ]
 
 

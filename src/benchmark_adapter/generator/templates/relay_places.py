@@ -101,7 +101,7 @@ def _midway(
 ) -> SceneObject | None:
     cx = sum(i.x for i in items) / len(items)
     cz = sum(i.z for i in items) / len(items)
-    direct = math.hypot(cx - target.x, cz - target.z)
+    direct = _distance((cx, cz), target)
     options = [
         o
         for o in _surfaces(scene, TRANSFER_TYPES[scene.room], items)

@@ -13,7 +13,7 @@ from typing import Any
 
 from benchmark_adapter.sim.embedded.affordances import SLICE_PIECES, affordances_of
 from benchmark_adapter.sim.embedded.vision import enclosed, interactable_poses, visible
-from benchmark_adapter.sim.embedded.world import GRID, SimAgent, SimObject, World
+from benchmark_adapter.sim.embedded.world import AGENT_Y, GRID, SimAgent, SimObject, World
 
 MIN_HORIZON, MAX_HORIZON = -30.0, 60.0
 
@@ -263,7 +263,7 @@ def _look(sign: float) -> Handler:
 
 
 def reachable_positions(world: World, agent: SimAgent, kw: dict[str, Any]) -> list[dict]:
-    return [{"x": cx * GRID, "y": 0.9, "z": cz * GRID} for cx, cz in sorted(world.floor)]
+    return [{"x": cx * GRID, "y": AGENT_Y, "z": cz * GRID} for cx, cz in sorted(world.floor)]
 
 
 def poses(world: World, agent: SimAgent, kw: dict[str, Any]) -> list[dict]:

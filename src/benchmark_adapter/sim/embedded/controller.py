@@ -7,7 +7,7 @@ from typing import Any
 
 from benchmark_adapter.sim.embedded.actions import HANDLERS, ActionFailed
 from benchmark_adapter.sim.embedded.metadata import AgentMetadata, MetadataFactory
-from benchmark_adapter.sim.embedded.world import World, ground_world
+from benchmark_adapter.sim.embedded.world import AGENT_Y, World, ground_world
 from benchmark_adapter.tasks.config import TaskConfig
 
 # Queries leave the world as it is, so cached object records stay valid.
@@ -97,7 +97,7 @@ class EmbeddedController:
             "otherAgents": [
                 {
                     "name": a.name,
-                    "position": {"x": a.x, "y": 0.9, "z": a.z},
+                    "position": {"x": a.x, "y": AGENT_Y, "z": a.z},
                     "rotation": {"x": 0, "y": a.yaw, "z": 0},
                 }
                 for a in world.agents

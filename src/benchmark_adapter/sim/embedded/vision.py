@@ -10,7 +10,14 @@ from __future__ import annotations
 import functools
 import math
 
-from benchmark_adapter.sim.embedded.world import CAMERA_HEIGHT, GRID, SimAgent, SimObject, World
+from benchmark_adapter.sim.embedded.world import (
+    AGENT_Y,
+    CAMERA_HEIGHT,
+    GRID,
+    SimAgent,
+    SimObject,
+    World,
+)
 
 FIELD_OF_VIEW = 90.0
 HORIZONS = (-30.0, 0.0, 30.0, 60.0)
@@ -108,6 +115,6 @@ def _poses_at(
     middle = (low + high) / 2
     horizon = min(fits, key=lambda h: abs(h - middle))
     return [
-        {"x": x, "y": 0.9, "z": z, "rotation": yaw, "horizon": horizon, "standing": True}
+        {"x": x, "y": AGENT_Y, "z": z, "rotation": yaw, "horizon": horizon, "standing": True}
         for yaw in yaws
     ]

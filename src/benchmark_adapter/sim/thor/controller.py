@@ -7,6 +7,7 @@ from typing import Any
 
 from benchmark_adapter.sim.thor.errors import ThorCrashed, ThorUnavailable
 from benchmark_adapter.sim.thor.events import agent_metadata, frame_png
+from benchmark_adapter.sim.thor.launch import ControllerFactory, open_controller
 from benchmark_adapter.sim.thor.options import ThorOptions
 from benchmark_adapter.sim.thor.pool import POOL, ControllerPool, Session
 from benchmark_adapter.tasks.config import TaskConfig
@@ -33,7 +34,7 @@ class ThorController:
         config: TaskConfig,
         options: ThorOptions | None = None,
         *,
-        factory: Callable[..., Any] | None = None,
+        factory: ControllerFactory | None = None,
         pool: ControllerPool | None = None,
     ) -> None:
         self.config = config
@@ -45,9 +46,7 @@ class ThorController:
                 f"{config.task_id}: scene {self.scene!r} is not an AI2-THOR scene (FloorPlan…); "
                 "it exists only in the embedded simulator (--backend embedded)"
             )
-        if factory is None:
-            from benchmark_adapter.sim.thor.launch import open_controller as factory
-        self._factory = factory
+        self._factory = open_controller if factory is None else factory
         self._pool = POOL if pool is None else pool
         self._session: Session | None = None
         self._event: Any = None  # the last ai2thor event; never handed out

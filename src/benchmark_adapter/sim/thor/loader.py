@@ -29,12 +29,3 @@ def require_ai2thor() -> ModuleType:
         raise wrong_version(version)
     return ai2thor
 
-
-def ai2thor_version() -> str | None:
-    """The installed ai2thor version, without importing it (None when not installed)."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("ai2thor")
-    except PackageNotFoundError:
-        return None
