@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -19,9 +18,10 @@ from benchmark_adapter.sim.embedded.world import SimAgent, World
 from benchmark_adapter.skills import SkillExecutor, SkillResult
 from benchmark_adapter.skills.native import find_object
 from benchmark_adapter.tasks import TaskConfig
+from tests.paths import SHARED_DATA
 
 # The real configs live beside the repository: /work/shared/cocobench-data next to /work/main.
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "cocobench-data"
+DATA = SHARED_DATA
 TASKS = DATA / "tasks"
 SHARED_FILES = sorted(TASKS.glob("*.json")) if TASKS.is_dir() else []
 needs_data = pytest.mark.skipif(not TASKS.is_dir(),

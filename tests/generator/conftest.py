@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from typing import Any
 
 import pytest
 
 from benchmark_adapter.generator import TASK_TYPES, package_data_root, run_strata
 from benchmark_adapter.generator.composition import TEAM_SIZES, Stratum, full_strata
+from tests.paths import SHARED_TASKS
 
 SHIPPED = package_data_root()
 # The released configs live beside the repository: /work/shared/cocobench-data next to /work/main.
-REAL_TASKS = Path(__file__).resolve().parents[2].parent / "shared" / "cocobench-data" / "tasks"
+REAL_TASKS = SHARED_TASKS
 
 
 def read_suite(name: str) -> list[dict[str, Any]]:

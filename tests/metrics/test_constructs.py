@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from pathlib import Path
 
 import pytest
 
@@ -17,6 +16,7 @@ from benchmark_adapter.metrics import (
     construct_score,
     cross_construct_scores,
 )
+from tests.paths import SHARED_TASKS
 
 from .builders import (
     APPLE,
@@ -470,7 +470,7 @@ def test_cross_construct_applies_all_four_with_their_own_gating():
 
 # ---- oracle-shaped trajectories on real released configs ---------------------------------
 
-DATA = Path(__file__).resolve().parents[3] / "shared" / "cocobench-data" / "tasks"
+DATA = SHARED_TASKS
 
 
 def real_config(name: str) -> dict:

@@ -12,8 +12,6 @@ from benchmark_adapter.tasks import TaskConfig, load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
 from cocobench_agents.models import ModelPool, ModelSettings
 
-SHARED_TASKS = Path(__file__).resolve().parents[2].parent / "shared" / "cocobench-data" / "tasks"
-
 
 @pytest.fixture(scope="session")
 def demo() -> dict[str, TaskConfig]:

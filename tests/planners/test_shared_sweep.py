@@ -10,8 +10,9 @@ import pytest
 from benchmark_adapter.tasks import load_tasks
 from benchmark_adapter.trajectory import dumps
 from cocobench_agents.episode_runner import EpisodeSpec
+from tests.paths import SHARED_TASKS
 
-from .conftest import SHARED_TASKS, run
+from .conftest import run
 
 CONFIGS = load_tasks(SHARED_TASKS) if SHARED_TASKS.exists() else []
 PLANNERS = ("centralized", "decentralized", "decentralized-broadcast")

@@ -22,8 +22,9 @@ from benchmark_adapter.sim.conformance import ConformanceError, check_controller
 from benchmark_adapter.sim.embedded import EmbeddedController
 from benchmark_adapter.sim.embedded.actions import HANDLERS
 from benchmark_adapter.tasks import load_task, load_tasks
+from tests.paths import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "cocobench-data"
+DATA = SHARED_DATA
 TASKS = DATA / "tasks"
 SHARED_FILES = sorted(TASKS.glob("*.json")) if TASKS.is_dir() else []
 DEMO = load_tasks("demo")

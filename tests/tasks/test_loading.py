@@ -15,8 +15,9 @@ from benchmark_adapter.tasks import (
     load_tasks,
     loading,
 )
+from tests.paths import SHARED_DATA
 
-DATA = Path(__file__).parents[2].parent / "shared" / "cocobench-data"
+DATA = SHARED_DATA
 TASKS = DATA / "tasks"
 REP240 = DATA / "index" / "rep240.json"
 REAL_FILES = sorted(TASKS.glob("*.json")) if TASKS.is_dir() else []

@@ -14,8 +14,9 @@ from benchmark_adapter.tasks import (
     load_tasks,
     select_tasks,
 )
+from tests.paths import SHARED_DATA
 
-DATA = Path(__file__).parents[2].parent / "shared" / "cocobench-data"
+DATA = SHARED_DATA
 
 
 def task(task_id: str) -> TaskConfig:

@@ -9,7 +9,6 @@ from __future__ import annotations
 import subprocess
 import sys
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 import pytest
 
@@ -17,6 +16,7 @@ from benchmark_adapter.sim.thor import ThorController, ThorOptions, environment
 from benchmark_adapter.sim.thor.environment import Renderers
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import TaskConfig, load_task
+from tests.paths import SHARED_TASKS
 
 
 def _importable(module: str) -> bool:
@@ -35,7 +35,7 @@ AI2THOR_MISSING = (
 needs_ai2thor = pytest.mark.skipif(not HAS_AI2THOR, reason=AI2THOR_MISSING)
 
 # The real configs live beside the repository: /work/shared/cocobench-data next to /work/main.
-TASKS = Path(__file__).resolve().parents[2].parent / "shared" / "cocobench-data" / "tasks"
+TASKS = SHARED_TASKS
 SHARED_FILES = sorted(TASKS.glob("*.json")) if TASKS.is_dir() else []
 needs_data = pytest.mark.skipif(
     not SHARED_FILES, reason=f"shared CoCoBench task configs not found at {TASKS}"

@@ -223,7 +223,7 @@ def check_embedded_episode() -> Check:
         start = time.perf_counter()
         result = score_trajectory(run_oracle(config))
         elapsed = time.perf_counter() - start
-    except Exception as exc:  # noqa: BLE001 -  # any failure here is the finding to report
+    except Exception as exc:  # noqa: BLE001 - any failure here is the finding to report
         return Check("fail", "embedded episode", f"{type(exc).__name__}: {exc}", _REINSTALL)
     if not (result.task_success and result.legal_plan):
         return Check(

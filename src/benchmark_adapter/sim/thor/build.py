@@ -30,7 +30,7 @@ def within(seconds: float, what: str, fn: Callable[[], T]) -> T:
     def target() -> None:
         try:
             outcome["value"] = fn()
-        except BaseException as exc:  # noqa: BLE001 -  # handed to the caller's thread below
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread below
             outcome["error"] = exc
 
     # Daemon: a lookup stuck in a socket read must not keep the interpreter alive at exit.
