@@ -14,9 +14,6 @@ from typing import Any
 import pytest
 from PIL import Image
 
-if importlib.util.find_spec("benchmark_adapter") is None:  # checkout without editable install
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "src"))
-
 from benchmark_adapter.sim import Controller
 from benchmark_adapter.sim.conformance import ConformanceError, check_controller
 from benchmark_adapter.sim.embedded import EmbeddedController

@@ -9,9 +9,6 @@ from pathlib import Path
 
 from PIL import Image, ImageChops
 
-if importlib.util.find_spec("benchmark_adapter") is None:  # checkout without editable install
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "src"))
-
 from benchmark_adapter.sim.embedded.render import (
     merge_agent_frames,
     render_agent_frame,
