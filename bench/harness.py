@@ -8,9 +8,11 @@ Prints medians and ratios:
    server (a separate process) that answers every call after a fixed 200 ms: wall time vs
    the ideal (total model time / 64) (aim: <= 1.25x), for each model transport (LiteLLM, the
    lean http client) in one process and in worker processes;
-3. peak RSS of a whole `cocobench-full` run with `greedy` (aim: < 1 GB).
+3. peak RSS of a whole `cocobench-full` run with `greedy` (aim: < 1 GB);
+4. the cost per model call of the tenacity `RetryPolicy` the decide node applies, on the
+   success path (against the 2 ms per-decision budget).
 
-Usage: python bench/harness.py [--part overhead|throughput|memory|all] [--episodes 240]
+Usage: python bench/harness.py [--part overhead|throughput|memory|retry|all] [--episodes 240]
        [--transport litellm|http]… [--workers N]…
 """
 
@@ -38,7 +40,14 @@ from cocobench_agents.harness import (
     execute_in_workers,
     plan_episodes,
 )
-from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
+from cocobench_agents.models import (
+    TRANSPORTS,
+    ModelPool,
+    ModelReply,
+    ModelRequest,
+    ModelSettings,
+    RetryPolicy,
+)
 
 SERVER = textwrap.dedent('''
     import json, re, sys, time
@@ -156,10 +165,39 @@ def memory(suite: str) -> None:
           f"{wall:.0f} s")
 
 
+def retry_overhead(calls: int = 2000, repeats: int = 15) -> None:
+    """Per-call time of `RetryPolicy.complete` minus that of the bare attempt it wraps."""
+
+    class Instant:
+        name = "instant"
+        reply = ModelReply(text="ACTION: 1")
+
+        async def attempt(self, request, number):
+            return self.reply
+
+    client, policy, request = Instant(), RetryPolicy(), ModelRequest(prompt="p")
+
+    async def timed(call) -> float:
+        start = time.perf_counter()
+        for _ in range(calls):
+            await call()
+        return (time.perf_counter() - start) / calls
+
+    async def measure() -> list[float]:
+        bare = await timed(lambda: client.attempt(request, 1))
+        wrapped = await timed(lambda: policy.complete(client, request))
+        return [wrapped - bare]
+
+    costs = [asyncio.run(measure())[0] for _ in range(repeats)]
+    print(f"retry policy (tenacity) per model call: median {statistics.median(costs) * 1e6:.0f} us"
+          f" (min {min(costs) * 1e6:.0f}, max {max(costs) * 1e6:.0f}; {repeats} x {calls} calls;"
+          f" budget 2 ms per decision)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--part", default="all",
-                        choices=["overhead", "throughput", "memory", "all"])
+                        choices=["overhead", "throughput", "memory", "retry", "all"])
     parser.add_argument("--episodes", type=int, default=240)
     parser.add_argument("--jobs", type=int, default=64)
     parser.add_argument("--delay", type=float, default=0.2)
@@ -173,6 +211,8 @@ def main() -> None:
     args.transport = args.transport or list(TRANSPORTS)
     args.workers = args.workers or [1, 2]
     configs = load_tasks("cocobench-240")
+    if args.part in ("retry", "all"):
+        retry_overhead()
     if args.part in ("overhead", "all"):
         overhead(configs[::4])
     if args.part in ("throughput", "all"):

@@ -14,6 +14,7 @@ from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks import TaskConfig
 from cocobench_agents.graphs import PlannerContext, compiled_graph, planner_spec
 from cocobench_agents.models.protocol import ModelClient
+from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
 from cocobench_agents.tools import EpisodeTools
 
@@ -91,6 +92,7 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
     context = PlannerContext(
         tools=tools, clients=make_clients(spec, pool), budget=spec.budget,
         sample_index=spec.sample_index,
+        retry_policy=planner.retry_policy or run_retry_policy(pool),
         oracle_plan=None if planner.uses_models else oracle_plan(spec.config),
     )
     tools.start()
@@ -100,6 +102,12 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
     finally:
         pool.release(spec.episode)
     return tools.finish(trajectory_path, **spec.identifiers())
+
+
+def run_retry_policy(pool: ClientFactory) -> RetryPolicy:
+    """The run-level retry policy: the pool's settings when it has them."""
+    settings = getattr(pool, "settings", None)
+    return RetryPolicy.from_settings(settings) if settings is not None else RetryPolicy()
 
 
 async def _invoke(spec: EpisodeSpec, context: PlannerContext, steps: int) -> None:

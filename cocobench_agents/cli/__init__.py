@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import sys
+from pathlib import Path
 
 import click
 
@@ -20,6 +21,18 @@ COMMANDS = {
     "generate": "generate_cmd:generate_command",
     "report": "report_cmd:report_command",
     "doctor": "doctor_cmd:doctor_command",
+}
+
+# What `cocobench --help` lists, so that it imports no subcommand (a command missing here is
+# imported for its own help line).
+SUMMARIES = {
+    "list": "List the instances of a suite, config file or folder.",
+    "validate": "Run every instance's oracle through the placement, oracle and metric gates.",
+    "score": "Rescore trajectory.json files (ours or the reference's).",
+    "run": "Run planners on instances into a resumable run folder.",
+    "generate": "Regenerate the built-in suites and print the rejections per gate.",
+    "report": "The paper's tables and figures from run folders.",
+    "doctor": "Check Python, packages, AI2-THOR prerequisites and API keys.",
 }
 
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback.
@@ -48,6 +61,17 @@ class LazyGroup(click.Group):
         module, attribute = target.split(":")
         return getattr(importlib.import_module(f"{__name__}.{module}"), attribute)
 
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = []
+        for name in self.list_commands(ctx):
+            summary = SUMMARIES.get(name)
+            if summary is None:
+                command = self.get_command(ctx, name)
+                summary = command.get_short_help_str(limit=70) if command else ""
+            rows.append((name, summary))
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="cocobench")
@@ -62,8 +86,19 @@ def is_user_error(exc: BaseException) -> bool:
                for module, name in USER_ERRORS.items() if module in sys.modules)
 
 
+def load_env_file(directory: Path | None = None) -> None:
+    """Read API keys from ``.env`` in the working directory (python-dotenv); a variable
+    already set in the environment wins."""
+    path = (directory or Path.cwd()) / ".env"
+    if path.is_file():
+        from dotenv import load_dotenv
+
+        load_dotenv(path, override=False)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: user mistakes become one-line errors and exit code 2, never tracebacks."""
+    load_env_file()
     try:
         code = cli.main(args=argv, prog_name="cocobench", standalone_mode=False)
     except click.exceptions.Exit as exc:

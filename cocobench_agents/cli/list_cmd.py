@@ -28,11 +28,11 @@ def instance_record(config) -> dict:
 
 
 @click.command("list")
-@click.argument("source")
+@click.argument("source", default="cocobench-240", required=False)
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list instead of a table.")
 def list_command(source: str, as_json: bool) -> None:
     """List the instances in SOURCE (a suite name, a config file or folder, an index.json or a
-    subset file such as rep240.json)."""
+    subset file such as rep240.json; default: the cocobench-240 suite)."""
     records = [instance_record(c) for c in load_tasks(source)]
     if as_json:
         click.echo(json.dumps(records, indent=2))

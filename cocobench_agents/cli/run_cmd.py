@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import shlex
 import sys
 from typing import Any
 
@@ -38,6 +39,12 @@ from cocobench_agents.models import ModelPool
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
 
 DEFAULT_TASKS = "cocobench-240"
+BASELINE_MODELS = ("greedy", "random")
+LEGEND = (
+    "SR: task success rate. CS: mean construct score of the scored episodes (n), CS_D1..D4 "
+    "per dimension; unscored episodes are not_engaged (no evidence of the construct), "
+    "low_signal (too little evidence) or na_no_actions (no step taken). legal: plans with no "
+    "illegal step. errors: episodes the model's infrastructure or the harness ended.")
 
 
 @click.command("run")
@@ -65,7 +72,11 @@ DEFAULT_TASKS = "cocobench-240"
 @click.option("--workers", type=click.IntRange(min=0), default=1, show_default=True,
               help="Processes sharing the --jobs (0: one per core). More than one helps "
                    "when many episodes in flight against a fast server make CPU the limit.")
-@click.option("--epochs", type=click.IntRange(min=1), default=1, show_default=True)
+@click.option("--epochs", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Runs of every episode (repeated samples; seeds differ per epoch).")
+@click.option("--baselines", is_flag=True,
+              help="Also run the reference rows on the same instances: the oracle (the upper "
+                   "bound) and the greedy and random built-in models.")
 @click.option("--resume", is_flag=True,
               help="Complete the missing episodes of --out (starting the run if it is new).")
 @click.option("--retry-errors", is_flag=True,
@@ -85,17 +96,30 @@ def run_command(**kw: Any) -> None:
     record = folder.open_for_resume() if kw["resume"] else None
     request = _request(kw, record)
     pool = ModelPool(model_settings(kw))
-    _check_models(pool, request["models"], request["agent_models"])
     episodes = plan_episodes(request["tasks"], request["models"], request["conditions"],
                              request["epochs"], request["options"])
+    todo = episodes if record is None else pending_episodes(
+        episodes, folder, retry_errors=kw["retry_errors"])
+    if todo:  # a finished run is only summarised: no model stack to load, no key to need
+        _check_models(pool, request["models"], request["agent_models"])
     if record is None:
         folder.create(run_record(kw["out"], request, pool.settings, sys.argv))
-    todo = pending_episodes(episodes, folder, retry_errors=kw["retry_errors"])
     click.echo(f"{len(episodes)} episodes ({len(episodes) - len(todo)} already done) "
                f"→ {folder.path}", err=True)
-    progress = Progress(len(episodes), already_done=len(episodes) - len(todo))
-    workers = kw["workers"] or available_cores()
     stopped_early = None
+    if todo:
+        stopped_early = _execute(todo, folder, pool, kw, len(episodes))
+    _summary(folder)
+    if stopped_early is not None:
+        raise stopped_early
+
+
+def _execute(todo: list, folder: RunFolder, pool: ModelPool, kw: dict[str, Any],
+             total: int) -> click.ClickException | None:
+    """Run the pending episodes with a progress display; what stopped the run early, if
+    anything (what did finish is recorded either way)."""
+    progress = Progress(total, already_done=total - len(todo))
+    workers = kw["workers"] or available_cores()
     try:
         if workers > 1:
             execute_in_workers(todo, folder, pool.settings, jobs=kw["jobs"], workers=workers,
@@ -104,12 +128,23 @@ def run_command(**kw: Any) -> None:
             asyncio.run(execute_and_close(todo, folder, pool, jobs=kw["jobs"],
                                           on_result=progress.episode_done))
     except WorkerError as exc:
-        stopped_early = exc  # what did finish is recorded: show it, then fail
+        return click.ClickException(str(exc))
+    except KeyboardInterrupt:
+        return RunInterrupted(folder, progress.done, total)
     finally:
         progress.close()
-    _summary(folder)
-    if stopped_early is not None:
-        raise click.ClickException(str(stopped_early))
+    return None
+
+
+class RunInterrupted(click.ClickException):
+    """Ctrl-C during a run: what finished is kept; say how to finish the rest."""
+
+    exit_code = 130
+
+    def __init__(self, folder: RunFolder, done: int, total: int) -> None:
+        super().__init__(f"interrupted: {done} of {total} episodes are recorded in "
+                         f"{folder.path}; finish the run with: cocobench run --out "
+                         f"{shlex.quote(str(folder.path))} --resume")
 
 
 def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any]:
@@ -120,6 +155,8 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
                   else [Condition(planner_spec(kw["planner"]).name, kw["obs_mode"])])
     needs_model = any(planner_spec(c.planner).uses_models for c in conditions)
     models = list(kw["models"]) or ([] if needs_model else ["oracle"])
+    if kw.get("baselines"):
+        models, conditions = with_baselines(models, conditions)
     if needs_model and not models:
         raise click.UsageError("--model is required (e.g. --model greedy, or a LiteLLM model)")
     load_prompt_suite(kw["prompt_suite"])
@@ -140,6 +177,15 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
     if record is not None:
         _same_as_recorded(request, record)
     return request
+
+
+def with_baselines(models: list[str], conditions: list[Condition]
+                   ) -> tuple[list[str], list[Condition]]:
+    """`models` and `conditions` plus the reference rows: the greedy and random built-ins
+    under every condition, and the oracle (the upper bound) under each observation mode."""
+    models = [*models, *(m for m in BASELINE_MODELS if m not in models)]
+    oracles = [Condition("oracle", obs) for obs in dict.fromkeys(c.obs_mode for c in conditions)]
+    return models, [*conditions, *(c for c in oracles if c not in conditions)]
 
 
 def _agent_models(pairs: tuple[str, ...] | list[str]) -> dict[str, str]:
@@ -179,6 +225,6 @@ def _check_models(pool: ModelPool, models: list[str], agent_models: dict[str, st
 
 def _summary(folder: RunFolder) -> None:
     rows = summary_rows(folder.results())
-    click.echo(table(HEADERS, rows))
+    click.echo(table(HEADERS, rows, caption=LEGEND))
     click.echo(f"results: {folder.results_path}  (cocobench report "
                f"{folder.path} --out DIR for the paper's tables)")

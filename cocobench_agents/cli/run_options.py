@@ -25,8 +25,12 @@ def selection_options(command: Callable) -> Callable:
     for option in reversed([
         click.option("--eval-set", multiple=True, metavar="NAME",
                      help="A cell, dim, family, curated set or task id (repeatable)."),
-        click.option("--only-cell", default=None), click.option("--only-family", default=None),
-        click.option("--only-dim", default=None),
+        click.option("--only-cell", default=None, metavar="CELL",
+                     help="Keep only this cell (e.g. A_D1)."),
+        click.option("--only-family", default=None, metavar="FAMILY",
+                     help="Keep only this task family."),
+        click.option("--only-dim", default=None, metavar="DIM",
+                     help="Keep only this coordination dimension (D1..D4)."),
         click.option("--task-id", multiple=True, metavar="ID", help="Keep only these ids."),
         click.option("--limit", type=click.IntRange(min=0), default=0,
                      help="At most K instances (0: all)."),
@@ -49,7 +53,8 @@ def model_options(command: Callable) -> Callable:
                      show_default=True, help="Model calls in flight per model."),
         click.option("--temperature", type=float, default=None,
                      help="Sampling temperature (default: the reference's rule)."),
-        click.option("--max-tokens", type=click.IntRange(min=1), default=None),
+        click.option("--max-tokens", type=click.IntRange(min=1), default=None,
+                     help="Completion token limit per call (default: not sent)."),
         click.option("--grammar", is_flag=True,
                      help="Constrain replies to the menu ids with a GBNF grammar "
                           "(llama.cpp servers)."),
@@ -88,4 +93,17 @@ def model_settings(kw: dict[str, Any]) -> ModelSettings:
     try:
         return ModelSettings(**kwargs)
     except ValueError as exc:
-        raise click.UsageError(str(exc)) from None
+        raise click.UsageError(flag_names(str(exc))) from None
+
+
+#: `ModelSettings` fields as the options that set them, for messages.
+FLAGS = {"api_key_env": "--api-key-env", "api_base": "--api-base", "timeout_s": "--timeout",
+         "max_retries": "--max-retries", "max_concurrency": "--max-concurrency",
+         "max_tokens": "--max-tokens", "extra_params": "--extra", "cache_dir": "--cache"}
+
+
+def flag_names(message: str) -> str:
+    """`message` with setting names replaced by the flags a user types."""
+    for name, flag in FLAGS.items():
+        message = message.replace(name, flag)
+    return message

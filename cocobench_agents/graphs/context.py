@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Generator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from benchmark_adapter.skills import SkillResult
 from cocobench_agents.models.protocol import ModelClient
+from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.tools import EpisodeTools
 
 
@@ -18,6 +19,8 @@ class PlannerContext:
     clients: dict[str, ModelClient]  # per agent; key "*" is the centralized / leader model
     budget: int | None  # landed steps allowed (None: unbounded)
     sample_index: int = 0
+    # How decide retries transient model failures; the run-level options by default.
+    retry_policy: RetryPolicy = field(default_factory=RetryPolicy)
     oracle_plan: Generator[str, SkillResult | None, None] | None = None  # the oracle's plan
     last_result: SkillResult | None = None  # what the oracle's previous call did
 

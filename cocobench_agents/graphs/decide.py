@@ -12,6 +12,7 @@ from typing import Any
 
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.models.protocol import ModelError, ModelRequest
+from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import parse_message, parse_reply
 from cocobench_agents.tools import model_decision, stop_decision
 
@@ -23,8 +24,9 @@ def accepts_images(client: object) -> bool:
 
 async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
                  history: Sequence[str], messages: Sequence[Mapping[str, str]] = (),
-                 broadcast: bool = False) -> dict[str, Any]:
-    """Ask `agent`'s model (the team's model when None) for its next action."""
+                 broadcast: bool = False, retry: RetryPolicy | None = None) -> dict[str, Any]:
+    """Ask `agent`'s model (the team's model when None) for its next action, retrying
+    transient failures under `retry` (default: the context's `retry_policy`)."""
     tools = ctx.tools
     client = ctx.client_for(agent)
     prompt, images, menu = tools.prompt(agent, history, messages, broadcast,
@@ -36,7 +38,7 @@ async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
                            agent=agent, sample_index=ctx.sample_index)
     started = time.perf_counter()
     try:
-        reply = await client.complete(request)
+        reply = await (retry or ctx.retry_policy).complete(client, request)
     except Exception as exc:  # noqa: BLE001 - any client failure idles this agent only
         error = exc if isinstance(exc, ModelError) else ModelError(
             "other", repr(exc), latency_s=time.perf_counter() - started)

@@ -38,8 +38,8 @@ async def lead(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[st
                               "terminal_reason": None, "prompt_hash": prompt_hash(prompt)}
     directives: dict[str, str] = {}
     try:
-        reply = await client.complete(ModelRequest(prompt=prompt, images=images,
-                                                   sample_index=ctx.sample_index))
+        request = ModelRequest(prompt=prompt, images=images, sample_index=ctx.sample_index)
+        reply = await ctx.retry_policy.complete(client, request)
         directives = {a: text[:200] for a, text in DIRECTIVE.findall(reply.text)
                       if a in tools.agents}
         record.update(reply_fields(reply), directives=directives)

@@ -7,15 +7,15 @@ To add a strategy, write a module with a `build_…() -> StateGraph` and registe
 from __future__ import annotations
 
 import functools
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-from langgraph.graph import StateGraph
+from cocobench_agents.models.retry import RetryPolicy
 
-from cocobench_agents.graphs.centralized import build_centralized
-from cocobench_agents.graphs.decentralized import build_decentralized
-from cocobench_agents.graphs.leader_worker import build_leader_worker
-from cocobench_agents.graphs.oracle import build_oracle
+if TYPE_CHECKING:
+    from langgraph.graph import StateGraph
 
 
 @dataclass(frozen=True)
@@ -28,19 +28,36 @@ class PlannerSpec:
     decentralized: bool  # one model per agent (else one model for the team)
     uses_models: bool
     description: str
+    # How this strategy retries transient model failures; None: the run-level options.
+    retry_policy: RetryPolicy | None = None
 
 
+def lazy_builder(target: str, **kwargs: Any) -> Callable[[], StateGraph]:
+    """A graph builder named ``module:function``, imported when a graph is first built (so
+    the registry can be read without importing LangGraph)."""
+
+    def build() -> StateGraph:
+        module, _, name = target.partition(":")
+        return getattr(importlib.import_module(module), name)(**kwargs)
+
+    return build
+
+
+_GRAPHS = "cocobench_agents.graphs"
 PLANNERS: dict[str, PlannerSpec] = {spec.name: spec for spec in (
-    PlannerSpec("centralized", "C0", build_centralized, False, True,
+    PlannerSpec("centralized", "C0", lazy_builder(f"{_GRAPHS}.centralized:build_centralized"),
+                False, True,
                 "one planner sees all views and moves one agent per step (paper C0)"),
-    PlannerSpec("decentralized", "D0", functools.partial(build_decentralized, broadcast=False),
+    PlannerSpec("decentralized", "D0",
+                lazy_builder(f"{_GRAPHS}.decentralized:build_decentralized", broadcast=False),
                 True, True, "one model per agent, simultaneous decisions, no messages (D0)"),
     PlannerSpec("decentralized-broadcast", "D1",
-                functools.partial(build_decentralized, broadcast=True), True, True,
-                "D0 plus a broadcast message board (D1)"),
-    PlannerSpec("leader-worker", "LW", build_leader_worker, True, True,
+                lazy_builder(f"{_GRAPHS}.decentralized:build_decentralized", broadcast=True),
+                True, True, "D0 plus a broadcast message board (D1)"),
+    PlannerSpec("leader-worker", "LW", lazy_builder(f"{_GRAPHS}.leader_worker:build_leader_worker"),
+                True, True,
                 "a leader model instructs each robot every round; robots decide in parallel"),
-    PlannerSpec("oracle", "OR", build_oracle, False, False,
+    PlannerSpec("oracle", "OR", lazy_builder(f"{_GRAPHS}.oracle:build_oracle"), False, False,
                 "the cell's privileged reference plan"),
 )}
 

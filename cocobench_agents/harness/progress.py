@@ -1,6 +1,7 @@
-"""Progress of a run: one line per finished episode, and a live status line on a terminal.
+"""Progress of a run: a live bar on a terminal (rich), plain lines elsewhere (CI, files).
 
-Off a terminal (CI, files) only the plain per-episode lines are written.
+Both show done/total, success so far, errors, tokens, cost and the time left; every finished
+episode also gets one line.
 """
 
 from __future__ import annotations
@@ -8,6 +9,15 @@ from __future__ import annotations
 import sys
 import time
 from typing import Any, TextIO
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemainingColumn
+from rich.progress import Progress as RichProgress
+
+from cocobench_agents.harness.store import is_retryable
+
+#: Off a terminal, a status line every this many seconds (and at the end).
+PLAIN_STATUS_EVERY_S = 30.0
 
 
 class Progress:
@@ -20,45 +30,63 @@ class Progress:
         self.total, self.done = total, already_done
         self.ran = self.successes = self.errors = 0
         self.tokens, self.cost = 0, 0.0
-        self.started = time.monotonic()
+        self._last_status = time.monotonic()
+        # Off a terminal the bar is not drawn; it still keeps the rate that estimates the ETA.
+        self._bar = _bar(self.stream, total, already_done)
+        if self.live:
+            self._bar.start()
 
     def episode_done(self, record: dict[str, Any]) -> None:
-        """Account for one result line and print it."""
+        """Account for one result line and show it."""
         self.done += 1
         self.ran += 1
         self.successes += int(record.get("task_success") or 0)
-        self.errors += bool(record.get("infra_error"))
+        self.errors += is_retryable(record)
         usage = record.get("usage") or {}
         self.tokens += int(usage.get("prompt_tokens") or 0) + int(
             usage.get("completion_tokens") or 0)
         self.cost += float(usage.get("cost_usd") or 0.0)
-        self._clear()
-        print(f"[{self.done}/{self.total}] {episode_line(record)}", file=self.stream)
-        self._status()
+        line = f"[{self.done}/{self.total}] {episode_line(record)}"
+        self._bar.update(self._task, completed=self.done, status=self.status_fields())
+        if self.live:
+            self._bar.console.print(line, markup=False, highlight=False, soft_wrap=True)
+        else:
+            print(line, file=self.stream, flush=True)
+            if time.monotonic() - self._last_status >= PLAIN_STATUS_EVERY_S:
+                self._last_status = time.monotonic()
+                print(self.status_text(), file=self.stream, flush=True)
 
     def close(self) -> None:
-        """End the live line."""
+        """End the live bar; off a terminal, print the final status."""
         if self.live:
-            self._clear()
+            self._bar.stop()
+        elif self.ran:
             print(self.status_text(), file=self.stream, flush=True)
 
+    def status_fields(self) -> str:
+        """Success so far, errors, tokens, cost."""
+        rate = f"{100 * self.successes / self.ran:.1f}%" if self.ran else "-"
+        return (f"SR {rate} ({self.successes}/{self.ran}) | errors {self.errors} | "
+                f"{self.tokens:,} tokens | ${self.cost:.4f}")
+
     def status_text(self) -> str:
-        """done/total, success so far, tokens, cost, ETA."""
-        rate = f"{self.successes}/{self.ran}" if self.ran else "0/0"
-        elapsed = time.monotonic() - self.started
-        left = self.total - self.done
-        eta = elapsed / self.ran * left if self.ran else 0.0
-        return (f"{self.done}/{self.total} done | success {rate} | {self.tokens:,} tokens | "
-                f"${self.cost:.4f} | errors {self.errors} | ETA {_duration(eta)}")
+        """done/total, the status fields and the time left."""
+        eta = self._bar.tasks[0].time_remaining
+        eta_text = "-" if eta is None else _duration(eta)
+        return f"{self.done}/{self.total} done | {self.status_fields()} | ETA {eta_text}"
 
-    def _status(self) -> None:
-        if self.live:
-            self.stream.write(self.status_text())
-            self.stream.flush()
+    @property
+    def _task(self) -> Any:
+        return self._bar.task_ids[0]
 
-    def _clear(self) -> None:
-        if self.live:
-            self.stream.write("\r\033[K")
+
+def _bar(stream: TextIO, total: int, done: int) -> RichProgress:
+    bar = RichProgress(
+        MofNCompleteColumn(), BarColumn(), TextColumn("{task.fields[status]}"),
+        TextColumn("ETA"), TimeRemainingColumn(),
+        console=Console(file=stream), transient=False, refresh_per_second=4)
+    bar.add_task("episodes", total=total, completed=done, status="SR - | errors 0")
+    return bar
 
 
 def episode_line(record: dict[str, Any]) -> str:

@@ -24,6 +24,7 @@ from .protocol import MenuOption, ModelClient, ModelError, ModelReply, ModelRequ
 from .registry import ModelPool
 from .remote import Completion, RemoteClient
 from .replay import ReplayClient, ReplaySource, recorded_replies
+from .retry import RetryPolicy
 from .secrets import REDACTED, redact, redact_obj
 from .settings import (
     LOCAL_PLACEHOLDER_KEY,
@@ -58,6 +59,7 @@ __all__ = [
     "ReplayClient",
     "ReplaySource",
     "ResponseCache",
+    "RetryPolicy",
     "Script",
     "ScriptedClient",
     "build_messages",

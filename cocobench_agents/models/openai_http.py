@@ -14,14 +14,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
-import importlib.util
 import os
-from pathlib import Path
 from typing import Any
 
 import orjson
 
 from .failures import MalformedCompletion, is_context_window_message, status_kind
+from .providers import litellm_cost_map
 from .remote import Completion, RemoteClient
 from .settings import ModelSettings
 
@@ -167,24 +166,10 @@ def preload(model: str) -> None:
 @functools.cache
 def token_prices(model: str) -> tuple[float, float]:
     """USD per (prompt, completion) token from LiteLLM's cost map; zeros if unpriced."""
-    cost_map = _litellm_cost_map()
+    cost_map = litellm_cost_map()
     for name in (model, model.removeprefix(OPENAI_PREFIX)):
         entry = cost_map.get(name)
         if isinstance(entry, dict):
             return (float(entry.get("input_cost_per_token") or 0.0),
                     float(entry.get("output_cost_per_token") or 0.0))
     return 0.0, 0.0
-
-
-@functools.cache
-def _litellm_cost_map() -> dict[str, Any]:
-    """The cost map LiteLLM ships (the one it loads offline), read without importing LiteLLM:
-    that takes seconds, in every worker process, while this file parses in milliseconds."""
-    spec = importlib.util.find_spec("litellm")
-    if spec is None or spec.origin is None:
-        return {}
-    path = Path(spec.origin).parent / "model_prices_and_context_window_backup.json"
-    try:
-        return orjson.loads(path.read_bytes())
-    except (OSError, orjson.JSONDecodeError):
-        return {}

@@ -42,7 +42,7 @@ class ModelReply:
 
 @dataclass
 class ModelError(Exception):
-    """The model gave no usable answer after retries (a `backend_error` decision).
+    """The model gave no usable answer (after retries: a `backend_error` decision).
 
     `kind` is one of: transient (retries exhausted), timeout, rate_limit, context_window,
     bad_request, auth, not_found, empty, other.
@@ -53,6 +53,8 @@ class ModelError(Exception):
     retries: int = 0
     latency_s: float = 0.0
     extra: dict = field(default_factory=dict)
+    transient: bool = False  # another attempt may succeed (a `RetryPolicy` retries it)
+    retry_after_s: float | None = None  # the server's Retry-After, when it sent one
 
     def __str__(self) -> str:
         return f"{self.kind}: {self.message}"

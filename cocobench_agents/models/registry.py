@@ -20,10 +20,16 @@ from .errors import ModelConfigError
 from .litellm_client import LiteLLMClient, import_litellm
 from .openai_http import OPENAI_KEY_ENV, OPENAI_PREFIX, OpenAIHTTPClient, preload
 from .protocol import ModelClient
+from .providers import key_variable, known_provider
 from .remote import RemoteClient
 from .settings import ModelSettings, is_local_url
 
 _BUILTIN_USAGE = "built-ins: greedy, random, random:SEED, scripted:FILE, replay:PATH"
+_UNKNOWN_MODEL = (
+    "unknown model: LiteLLM cannot tell its provider; write provider/model (e.g. "
+    "openai/gpt-4o, anthropic/claude-sonnet-4-5, openai/NAME with --api-base for an "
+    f"OpenAI-compatible server), or one of the {_BUILTIN_USAGE}"
+)
 _REMOTE_CLIENTS: dict[str, type[RemoteClient]] = {
     kind.transport: kind for kind in (LiteLLMClient, OpenAIHTTPClient)}
 
@@ -131,28 +137,31 @@ class ModelPool:
         s = self.settings
         if s.transport == "http":
             self._validate_http_model(spec)
-        else:
-            self._validate_litellm_model(spec)
+        elif known_provider(spec) is None:  # told from LiteLLM's cost map, without LiteLLM
+            raise ModelConfigError(spec, _UNKNOWN_MODEL)
         if s.api_key_env:
             if not os.environ.get(s.api_key_env):
                 raise ModelConfigError(
-                    spec, f"no API key: the variable {s.api_key_env} (api_key_env) is not set"
+                    spec, f"no API key: the variable {s.api_key_env} (--api-key-env) is not set"
                 )
-            return
-        if is_local_url(s.api_base):
-            return  # local servers (llama.cpp, vLLM, Ollama) rarely check keys
-        missing = self._missing_keys(spec)
-        if missing:
-            raise ModelConfigError(
-                spec,
-                f"no API key: set {' and '.join(missing)} in the environment "
-                "(or name the variable holding the key with api_key_env)",
-            )
+        elif not is_local_url(s.api_base):  # local servers (llama.cpp, vLLM) rarely check keys
+            missing = self._missing_keys(spec)
+            if missing:
+                raise ModelConfigError(
+                    spec,
+                    f"no API key: set {' and '.join(missing)} in the environment or in a .env "
+                    "file (or name the variable holding the key with --api-key-env)",
+                )
+        if s.transport == "litellm":
+            self._validate_litellm_model(spec)
 
     def _missing_keys(self, spec: str) -> list[str]:
         """The provider's key variables that are not set (none when it cannot be told)."""
         if self.settings.transport == "http":
             return [] if os.environ.get(OPENAI_KEY_ENV) else [OPENAI_KEY_ENV]
+        variable = key_variable(spec)
+        if variable is not None:  # a common provider: no need to import LiteLLM to tell
+            return [] if os.environ.get(variable) else [variable]
         litellm = import_litellm()
         try:
             env = litellm.validate_environment(model=spec, api_base=self.settings.api_base)
@@ -175,9 +184,4 @@ class ModelPool:
         try:
             litellm.get_llm_provider(model=spec, api_base=self.settings.api_base)
         except Exception:  # noqa: BLE001 - LiteLLM raises several types for an unknown model
-            raise ModelConfigError(
-                spec,
-                "unknown model: LiteLLM cannot tell its provider; write provider/model "
-                "(e.g. openai/gpt-4o, anthropic/claude-sonnet-4-5, openai/NAME with an "
-                f"api_base for an OpenAI-compatible server), or one of the {_BUILTIN_USAGE}",
-            ) from None
+            raise ModelConfigError(spec, _UNKNOWN_MODEL) from None

@@ -5,7 +5,6 @@ transport subclass only sends one attempt and says what its failures mean."""
 from __future__ import annotations
 
 import asyncio
-import random
 import time
 import weakref
 from dataclasses import dataclass
@@ -16,6 +15,7 @@ from .failures import EmptyCompletion, MalformedCompletion, retry_after_s, statu
 from .grammar import menu_grammar, wants_message
 from .messages import build_messages, cap_reply
 from .protocol import ModelError, ModelReply, ModelRequest
+from .retry import RetryPolicy
 from .secrets import redact
 from .settings import ModelSettings
 
@@ -35,15 +35,12 @@ class Completion:
 class RemoteClient:
     """A `ModelClient` for one model string behind HTTP.
 
-    Transient failures (rate limits, timeouts, connection errors, 5xx, empty or malformed
-    completions) are retried with jittered exponential backoff, attempt n with an HTTP timeout
-    of ``timeout_s × n``; client errors fail fast. Every failure ends as a `ModelError` whose
-    message never contains a key.
-
-    A reply's `latency_s` runs from the first attempt to the answer (retries and backoff
-    included, queueing for the concurrency limit not); its tokens and cost add up every
-    attempt that got an answer (empty ones too). A cache hit returns the stored reply as it
-    was first obtained, with ``cached=True``.
+    One `attempt` sends one request, attempt n with an HTTP timeout of ``timeout_s × n``.
+    Rate limits, timeouts, connection errors, 5xx, empty or malformed completions are
+    transient failures, which a `RetryPolicy` retries; client errors are not. Every failure
+    is a `ModelError` whose message never contains a key; its `extra` carries the tokens and
+    cost the attempt spent (an empty answer still costs). A cache hit returns the stored
+    reply as it was first obtained, with ``cached=True``.
     """
 
     transport: ClassVar[str]  # the `ModelSettings.transport` value naming this client
@@ -103,7 +100,14 @@ class RemoteClient:
         return params
 
     async def complete(self, request: ModelRequest) -> ModelReply:
-        """Answer `request` (from the cache when possible); raise `ModelError` otherwise."""
+        """Answer `request` under the run-level retry policy; raise `ModelError` otherwise.
+        (A planner applies its own `RetryPolicy` to `attempt` instead.)"""
+        return await RetryPolicy.from_settings(self.settings).complete(self, request)
+
+    async def attempt(self, request: ModelRequest, number: int) -> ModelReply:
+        """Attempt `number` at `request` (from the cache when possible): HTTP timeout
+        ``timeout_s × number`` (the reference's "180 s × attempt number"); every failure
+        raises a `ModelError` saying whether it is transient."""
         messages = build_messages(request)
         params = self.call_params(request)
         key = None
@@ -112,8 +116,8 @@ class RemoteClient:
             hit = self.cache.get(key)
             if hit is not None:
                 return hit
-        async with self._semaphore():
-            reply = await self._call(messages, params)
+        async with self._semaphore():  # held for the attempt only, not for the backoff
+            reply = await self._send_once(messages, params, number)
         if key is not None:  # set only when there is a cache
             self.cache.put(key, reply, model=self.model, sample_index=request.sample_index)
         return reply
@@ -126,38 +130,22 @@ class RemoteClient:
             sem = self._semaphores[loop] = asyncio.Semaphore(self.settings.max_concurrency)
         return sem
 
-    # -- the call, with retries --------------------------------------------------------------
-
-    async def _call(self, messages: list[dict[str, Any]], params: dict[str, Any]) -> ModelReply:
+    async def _send_once(self, messages: list[dict[str, Any]], params: dict[str, Any],
+                         number: int) -> ModelReply:
         s = self.settings
         start = time.perf_counter()
         spent = {"prompt_tokens": 0, "completion_tokens": 0, "cost_usd": 0.0}
-        # A plain loop, not tenacity: its per-attempt machinery cost ~0.25 ms of CPU on every
-        # call, 7% of a run's CPU against a fast local server, for retries that are rare.
-        for attempt in range(1, s.max_attempts + 1):
-            try:
-                # The reference's "180 s × attempt number".
-                completion = await self.send(messages, params, s.timeout_s * attempt)
-                spent["prompt_tokens"] += completion.prompt_tokens
-                spent["completion_tokens"] += completion.completion_tokens
-                spent["cost_usd"] += completion.cost_usd
-                if not completion.text.strip():
-                    raise EmptyCompletion("the model returned an empty completion")
-                break
-            except Exception as exc:  # noqa: BLE001 - every failure must become a ModelError
-                if attempt == s.max_attempts or not self._kind(exc)[1]:
-                    raise self._error(exc, attempt, time.perf_counter() - start, spent) from None
-                await asyncio.sleep(self._backoff_s(attempt, exc))
+        try:
+            completion = await self.send(messages, params, s.timeout_s * number)
+            spent.update(prompt_tokens=completion.prompt_tokens,
+                         completion_tokens=completion.completion_tokens,
+                         cost_usd=completion.cost_usd)
+            if not completion.text.strip():
+                raise EmptyCompletion("the model returned an empty completion")
+        except Exception as exc:  # noqa: BLE001 - every failure must become a ModelError
+            raise self._error(exc, time.perf_counter() - start, spent) from None
         text, _ = cap_reply(completion.text, s.max_reply_chars)
-        return ModelReply(
-            text=text,
-            prompt_tokens=spent["prompt_tokens"],
-            completion_tokens=spent["completion_tokens"],
-            cost_usd=spent["cost_usd"],
-            latency_s=time.perf_counter() - start,
-            retries=attempt - 1,
-            cached=False,
-        )
+        return ModelReply(text=text, latency_s=time.perf_counter() - start, **spent)
 
     def _kind(self, exc: BaseException) -> tuple[str, bool]:
         if isinstance(exc, EmptyCompletion):
@@ -166,35 +154,17 @@ class RemoteClient:
             return "transient", True
         return self.classify(exc)
 
-    def _backoff_s(self, attempt: int, exc: BaseException) -> float:
-        """Full-jitter exponential backoff after failed `attempt`, at least the server's
-        Retry-After (capped)."""
-        s = self.settings
-        ceiling = min(s.backoff_max_s, s.backoff_s * 2 ** (attempt - 1))
-        wait = random.uniform(0, ceiling)
-        hint = retry_after_s(exc)
-        if hint is not None:
-            wait = max(wait, min(hint, s.backoff_max_s))
-        return wait
-
-    def _error(
-        self, exc: BaseException, attempts: int, latency_s: float, spent: dict[str, Any]
-    ) -> ModelError:
+    def _error(self, exc: BaseException, latency_s: float, spent: dict[str, Any]
+               ) -> ModelError:
         kind, transient = self._kind(exc)
         detail = str(exc).strip().replace("\n", " ")
         if len(detail) > _MAX_ERROR_CHARS:
             detail = detail[:_MAX_ERROR_CHARS] + "…"
         message = f"{self.model}: {type(exc).__name__}: {detail}"
-        if transient:
-            message += f" (after {attempts} attempt{'s' if attempts != 1 else ''})"
-        extra: dict[str, Any] = {"attempts": attempts, "exception": type(exc).__name__, **spent}
+        extra: dict[str, Any] = {"exception": type(exc).__name__, **spent}
         status = status_code(exc)
         if status is not None:
             extra["status_code"] = status
-        return ModelError(
-            kind=kind,
-            message=redact(message, [self.settings.api_key()]),
-            retries=max(0, attempts - 1),
-            latency_s=latency_s,
-            extra=extra,
-        )
+        return ModelError(kind=kind, message=redact(message, [self.settings.api_key()]),
+                          latency_s=latency_s, extra=extra, transient=transient,
+                          retry_after_s=retry_after_s(exc))

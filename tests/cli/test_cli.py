@@ -35,7 +35,7 @@ def test_list_demo_table(capsys) -> None:
     lines = out.splitlines()
     assert lines[0].split() == ["task_id", "cell", "family", "dim", "agents", "scene", "room",
                                 "budget"]
-    assert set(lines[1]) == {"-", " "}
+    assert set(lines[1]) == {"─"}
     assert [line.split()[0] for line in lines[2:6]] == DEMO_IDS
     assert lines[4].split() == ["J_D4__DemoBedroom2__seed0", "J_D4", "J", "D4", "2",
                                 "DemoBedroom2", "bedroom", "60"]

@@ -3,10 +3,8 @@ every shared config; deliberately broken backends are caught."""
 
 from __future__ import annotations
 
-import importlib.util
 import io
 import random
-import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any

@@ -3,10 +3,6 @@ object, closed receptacles, immutable metadata snapshots, determinism."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import pytest
 
 from benchmark_adapter.sim.embedded import EmbeddedController
