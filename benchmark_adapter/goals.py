@@ -1,7 +1,9 @@
 """Goal predicates, the goal text and the live progress block (reference §6.1, §7.1).
 
 Predicates are evaluated against agent 0's object metadata; `sliced_by` also needs the
-recorded steps (who sliced what).
+recorded steps (who sliced what). Each check keeps the reference's form — the predicate as
+the config states it, the resolved `objectId`, `passed`, and the reference's `detail`
+wording — so tooling that reads the reference's `trajectory.json` reads ours.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ Steps = Sequence[Mapping[str, Any]]  # recorded skill_result dicts
 class Check:
     """One predicate's verdict."""
 
-    predicate: str
+    predicate: dict[str, Any]  # the goal predicate as the config states it
     objectId: str
     passed: bool
     detail: str
@@ -35,18 +37,16 @@ class Check:
 
 
 def _on(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
-    obj = objs.get(g.obj)
-    parents = (obj or {}).get("parentReceptacles") or []
-    return g.receptacle in parents, f"parents={parents}"
+    parents = objs[g.obj].get("parentReceptacles") or []
+    return g.receptacle in parents, f"parentReceptacles={parents} expected={g.receptacle}"
 
 
 def _on_sliced_piece(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
     prefix = g.source + "|"
-    for oid, o in objs.items():
-        is_piece = oid.startswith(prefix) and o["objectType"].endswith("Sliced")
-        if is_piece and g.receptacle in (o.get("parentReceptacles") or []):
-            return True, f"{oid} on {g.receptacle}"
-    return False, f"no slice of {g.source} on {g.receptacle}"
+    pieces = [o for oid, o in objs.items()
+              if oid.startswith(prefix) and (o.get("objectType") or "").endswith("Sliced")]
+    on = [o for o in pieces if g.receptacle in (o.get("parentReceptacles") or [])]
+    return bool(on), f"sliced_pieces={len(pieces)} on_{g.receptacle}={len(on)}"
 
 
 def _flag(key: str, want: Callable[[Any, Args], bool]) -> Callable:
@@ -66,14 +66,14 @@ def _sliced_by(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
         and (s.get("args") or {}).get("objectId") == g.obj
         for s in steps
     )
-    return sliced and by_agent, f"isSliced={sliced}, sliced_by_{g.agent}={by_agent}"
+    return sliced and by_agent, f"isSliced={sliced} required_agent={g.agent} matched={by_agent}"
 
 
 def _filled_check(objs: Objects, g: Args, steps: Steps) -> tuple[bool, str]:
     filled, liquid = objs[g.obj].get("isFilledWithLiquid"), objs[g.obj].get("fillLiquid")
     # As the reference: an unrecorded liquid satisfies any requested one.
-    ok = bool(filled) and (not g.liquid or not liquid or liquid == g.liquid)
-    return ok, f"isFilledWithLiquid={filled}, fillLiquid={liquid}"
+    ok = bool(filled) and (not g.liquid or liquid in (g.liquid, None, ""))
+    return ok, f"isFilledWithLiquid={filled} fillLiquid={liquid}"
 
 
 @dataclass(frozen=True)
@@ -154,14 +154,16 @@ def evaluate(
 
 
 def _check(goal: GoalPredicate, args: Args, by_id: Objects, steps: Steps) -> Check:
-    subject = args.obj or args.source
+    stated = goal.model_dump(mode="json", exclude_unset=True)
     fn = CHECKS.get(goal.predicate)
+    if goal.predicate == "on_sliced_piece":  # counts the pieces: the source may be gone
+        return Check(stated, args.source, *fn(by_id, args, steps))
+    # The reference's order: a missing object first, then an unknown predicate.
+    if args.obj not in by_id:
+        return Check(stated, args.obj, False, f"object not found: {args.obj}")
     if fn is None:
-        return Check(goal.predicate, subject, False, f"unknown predicate {goal.predicate!r}")
-    if subject not in by_id:
-        return Check(goal.predicate, subject, False, "object missing")
-    passed, detail = fn(by_id, args, steps)
-    return Check(goal.predicate, subject, passed, detail)
+        return Check(stated, args.obj, False, f"unsupported predicate: {goal.predicate}")
+    return Check(stated, args.obj, *fn(by_id, args, steps))
 
 
 # -- natural language --------------------------------------------------------------------

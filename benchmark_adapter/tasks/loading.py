@@ -22,6 +22,7 @@ from typing import Any, Literal
 
 from pydantic import ValidationError
 
+from .checks import problems
 from .config import TaskConfig
 from .errors import TaskConfigError, from_json_error, from_validation_error
 
@@ -37,6 +38,10 @@ _CONFIG_KEYS = frozenset(
 
 # How many missing ids an error message shows before eliding the rest.
 _SHOWN_IDS = 5
+
+# Deeper JSON than this is not a config (real ones nest 5 levels); refusing it here keeps
+# every later reader and writer of the data clear of Python's recursion limit.
+MAX_JSON_DEPTH = 64
 
 
 # -- public API --------------------------------------------------------------------------
@@ -73,15 +78,25 @@ def available_suites() -> list[str]:
 
 
 def read_json(path: str | Path) -> Any:
-    """Parse a JSON file, turning I/O and syntax problems into `TaskConfigError`."""
+    """Parse a JSON file, turning I/O, encoding, syntax and nesting problems into
+    `TaskConfigError`."""
     try:
         text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:
         raise TaskConfigError(path, f"cannot read file: {exc.strerror or exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise TaskConfigError(
+            path, f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start})"
+        ) from None
     try:
-        return json.loads(text)
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise from_json_error(path, exc) from exc
+    except RecursionError:
+        data = None
+    if data is None and text.strip() != "null" or _depth_exceeds(data, MAX_JSON_DEPTH):
+        raise TaskConfigError(path, f"JSON nested more than {MAX_JSON_DEPTH} levels deep")
+    return data
 
 
 def file_kind(data: Any) -> str | None:
@@ -95,6 +110,19 @@ def file_kind(data: Any) -> str | None:
     if _CONFIG_KEYS & data.keys():
         return "task"
     return None
+
+
+def _depth_exceeds(data: Any, limit: int) -> bool:
+    """Whether arrays/objects nest more than `limit` levels (iterative: no recursion)."""
+    stack = [(data, 1)]
+    while stack:
+        value, depth = stack.pop()
+        if isinstance(value, (dict, list)):
+            if depth > limit:
+                return True
+            children = value.values() if isinstance(value, dict) else value
+            stack.extend((child, depth + 1) for child in children)
+    return False
 
 
 # -- sources -----------------------------------------------------------------------------
@@ -244,6 +272,12 @@ def _parse(data: Any, path: Path) -> TaskConfig:
         task = TaskConfig.model_validate(data)
     except ValidationError as exc:
         raise from_validation_error(path, exc) from None
+    found = problems(task)
+    if found:
+        (field, what), more = found[0], len(found) - 1
+        if more:
+            what += f" (and {more} more problem{'s' if more > 1 else ''})"
+        raise TaskConfigError(path, what, field)
     task._source = str(path)
     return task
 

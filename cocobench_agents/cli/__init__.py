@@ -21,6 +21,7 @@ COMMANDS = {
     "generate": "generate_cmd:generate_command",
     "report": "report_cmd:report_command",
     "doctor": "doctor_cmd:doctor_command",
+    "prompts": "prompts_cmd:prompts_command",
 }
 
 # What `cocobench --help` lists, so that it imports no subcommand (a command missing here is
@@ -33,6 +34,7 @@ SUMMARIES = {
     "generate": "Regenerate the built-in suites and print the rejections per gate.",
     "report": "The paper's tables and figures from run folders.",
     "doctor": "Check Python, packages, AI2-THOR prerequisites and API keys.",
+    "prompts": "List, export and preview prompt suites (the prompt a model gets).",
 }
 
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback.
@@ -41,6 +43,7 @@ USER_ERRORS = {
     "benchmark_adapter.tasks.errors": "TaskConfigError",
     "benchmark_adapter.sim.thor.errors": "ThorUnavailable",
     "cocobench_agents.models.errors": "ModelConfigError",
+    "cocobench_agents.models.preflight": "PreflightError",
     "cocobench_agents.harness.store": "RunFolderError",
     "cocobench_agents.harness.plan": "PlanError",
     "cocobench_agents.prompts.suite": "PromptSuiteError",

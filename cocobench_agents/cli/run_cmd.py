@@ -12,12 +12,14 @@ import click
 
 from benchmark_adapter.sim.backends import check_backend
 from benchmark_adapter.tasks import load_tasks, select_tasks
+from cocobench_agents.cli.resume import recorded_options, restore_options
 from cocobench_agents.cli.run_options import (
     backend_option,
     model_options,
     model_settings,
     selection_options,
 )
+from cocobench_agents.cli.run_ray import check_executor_options, executor_options, run_on_ray
 from cocobench_agents.cli.tables import table
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.harness import (
@@ -34,9 +36,11 @@ from cocobench_agents.harness import (
     plan_episodes,
     run_record,
 )
-from cocobench_agents.harness.summary import HEADERS, summary_rows
+from cocobench_agents.harness.infra import count_infra_failures, retry_command
+from cocobench_agents.harness.limits import SpendLimit
+from cocobench_agents.harness.summary import HEADERS, latest, summary_rows
 from cocobench_agents.models import ModelPool
-from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
+from cocobench_agents.prompts import DEFAULT_SUITE, check_unchanged, load_prompt_suite
 
 DEFAULT_TASKS = "cocobench-240"
 BASELINE_MODELS = ("greedy", "random")
@@ -63,8 +67,9 @@ LEGEND = (
                    "scripted:PATH, replay:PATH). Repeatable.")
 @click.option("--agent-model", "agent_models", multiple=True, metavar="AGENT=M",
               help="A different model for one agent of a decentralized team (repeatable).")
-@click.option("--prompt-suite", default=DEFAULT_SUITE, show_default=True,
-              help="Prompt suite, with ablations joined by '+': cocobench-v1+no-hint.")
+@click.option("--prompt-suite", default=DEFAULT_SUITE, show_default=True, metavar="NAME|PATH",
+              help="Prompt suite: a shipped name or a suite folder (see `cocobench prompts`), "
+                   "with ablations joined by '+': cocobench-v1+no-hint.")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False),
               help="Run folder.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=8, show_default=True,
@@ -79,9 +84,23 @@ LEGEND = (
                    "bound) and the greedy and random built-in models.")
 @click.option("--resume", is_flag=True,
               help="Complete the missing episodes of --out (starting the run if it is new).")
+@click.option("--max-cost", type=click.FloatRange(min=0), default=None, metavar="USD",
+              help="Stop starting episodes once the run's model calls cost this much "
+                   "(episodes in flight finish; --resume with a higher limit completes).")
+@click.option("--max-total-tokens", type=click.IntRange(min=0), default=None, metavar="N",
+              help="Stop starting episodes once the run's model calls used this many "
+                   "tokens (prompt + completion).")
+@click.option("--episode-timeout", type=click.FloatRange(min=0), default=7200.0,
+              show_default=True, metavar="S",
+              help="Wall-clock seconds an episode may run before it ends as an "
+                   "infrastructure error (0: no limit).")
 @click.option("--retry-errors", is_flag=True,
               help="With --resume: re-run infrastructure failures and backend errors too.")
+@click.option("--no-preflight", is_flag=True,
+              help="Skip the one call per remote model and input kind made before any "
+                   "episode starts (it stops the run, exit 2, when the provider refuses).")
 @backend_option
+@executor_options
 @click.option("--max-steps", type=click.IntRange(min=1), default=None,
               help="Override every instance's step budget.")
 @click.option("--stable-ids", is_flag=True,
@@ -91,9 +110,12 @@ LEGEND = (
 def run_command(**kw: Any) -> None:
     """Run planners on CoCoBench instances and record one trajectory and one result per
     episode. Every model × condition × instance × epoch is one episode."""
-    check_backend(kw["backend"])
     folder = RunFolder(kw["out"])
     record = folder.open_for_resume() if kw["resume"] else None
+    if record is not None and "cli_options" in record:
+        kw = restore_options(kw, record["cli_options"], click.get_current_context())
+    check_backend(kw["backend"])
+    check_executor_options(kw)
     request = _request(kw, record)
     pool = ModelPool(model_settings(kw))
     episodes = plan_episodes(request["tasks"], request["models"], request["conditions"],
@@ -102,8 +124,15 @@ def run_command(**kw: Any) -> None:
         episodes, folder, retry_errors=kw["retry_errors"])
     if todo:  # a finished run is only summarised: no model stack to load, no key to need
         _check_models(pool, request["models"], request["agent_models"])
+        if not kw["no_preflight"]:
+            from cocobench_agents.models.preflight import preflight
+
+            preflight(pool, [*request["models"], *request["agent_models"].values()],
+                      {c.obs_mode for c in request["conditions"]
+                       if planner_spec(c.planner).uses_models})
     if record is None:
-        folder.create(run_record(kw["out"], request, pool.settings, sys.argv))
+        folder.create({**run_record(kw["out"], request, pool.settings, sys.argv),
+                       "cli_options": recorded_options(kw)})
     click.echo(f"{len(episodes)} episodes ({len(episodes) - len(todo)} already done) "
                f"→ {folder.path}", err=True)
     stopped_early = None
@@ -112,6 +141,9 @@ def run_command(**kw: Any) -> None:
     _summary(folder)
     if stopped_early is not None:
         raise stopped_early
+    failed = count_infra_failures(latest(folder.results()))
+    if failed:
+        raise RunHadErrors(folder, failed)
 
 
 def _execute(todo: list, folder: RunFolder, pool: ModelPool, kw: dict[str, Any],
@@ -119,21 +151,57 @@ def _execute(todo: list, folder: RunFolder, pool: ModelPool, kw: dict[str, Any],
     """Run the pending episodes with a progress display; what stopped the run early, if
     anything (what did finish is recorded either way)."""
     progress = Progress(total, already_done=total - len(todo))
+    limit = SpendLimit(kw["max_cost"], kw["max_total_tokens"], spent=latest(folder.results()))
+
+    def on_result(record: dict[str, Any]) -> None:
+        limit.add(record)
+        progress.episode_done(record)
+
+    options = {"limit": limit if limit.active else None,
+               "episode_timeout_s": kw["episode_timeout"] or None}
     workers = kw["workers"] or available_cores()
     try:
-        if workers > 1:
+        if kw["executor"] == "ray":
+            run_on_ray(kw, todo, folder, pool.settings, on_result)
+        elif workers > 1:
             execute_in_workers(todo, folder, pool.settings, jobs=kw["jobs"], workers=workers,
-                               on_result=progress.episode_done)
+                               on_result=on_result, **options)
         else:
             asyncio.run(execute_and_close(todo, folder, pool, jobs=kw["jobs"],
-                                          on_result=progress.episode_done))
+                                          on_result=on_result, **options))
     except WorkerError as exc:
         return click.ClickException(str(exc))
     except KeyboardInterrupt:
         return RunInterrupted(folder, progress.done, total)
     finally:
         progress.close()
+    if progress.done < total and limit.reached():
+        return SpendLimitReached(folder, limit, total - progress.done)
     return None
+
+
+class SpendLimitReached(click.ClickException):
+    """The run stopped starting episodes at --max-cost / --max-total-tokens."""
+
+    exit_code = 3
+
+    def __init__(self, folder: RunFolder, limit: SpendLimit, left: int) -> None:
+        flag = "--max-cost USD" if limit.max_cost_usd is not None else "--max-total-tokens N"
+        super().__init__(f"spend limit reached ({limit.describe()}): {left} episodes not "
+                         f"started; raise the limit and finish the run with: cocobench run "
+                         f"--out {shlex.quote(str(folder.path))} --resume {flag}")
+
+
+class RunHadErrors(click.ClickException):
+    """Episodes ended because of the model's infrastructure: exit 1, and say how to retry."""
+
+    exit_code = 1
+
+    def __init__(self, folder: RunFolder, failed: int) -> None:
+        super().__init__(
+            f"{failed} episode{'s' if failed != 1 else ''} ended on an infrastructure error "
+            "(model backend error, timeout, unsupported input, or the harness) and count as "
+            f"failures above; retry them with: {retry_command(folder.path)}")
 
 
 class RunInterrupted(click.ClickException):
@@ -149,8 +217,9 @@ class RunInterrupted(click.ClickException):
 
 def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any]:
     """The run request from the options, checked against the recorded run when resuming."""
-    if record is not None and not (kw["tasks"] or kw["suite"] or kw["models"]):
-        kw = {**kw, **record["request"]}  # a bare --resume reuses the recorded request
+    if record is not None and "cli_options" not in record and not (
+            kw["tasks"] or kw["suite"] or kw["models"]):
+        kw = {**kw, **record["request"]}  # a folder of an older version: its recorded plan
     conditions = (parse_conditions(kw["conditions"]) if kw["conditions"]
                   else [Condition(planner_spec(kw["planner"]).name, kw["obs_mode"])])
     needs_model = any(planner_spec(c.planner).uses_models for c in conditions)
@@ -159,7 +228,7 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
         models, conditions = with_baselines(models, conditions)
     if needs_model and not models:
         raise click.UsageError("--model is required (e.g. --model greedy, or a LiteLLM model)")
-    load_prompt_suite(kw["prompt_suite"])
+    prompt_suite = load_prompt_suite(kw["prompt_suite"])
     sources = list(kw["tasks"]) or [kw["suite"] or DEFAULT_TASKS]
     tasks = [t for source in sources for t in load_tasks(source)]
     tasks = select_tasks(tasks, kw["eval_set"], only_cell=kw["only_cell"],
@@ -170,12 +239,13 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
         "sources": sources, "tasks": tasks, "task_ids": [t.task_id for t in tasks],
         "models": models, "agent_models": agent_models,
         "conditions": conditions, "epochs": kw["epochs"],
-        "options": RunOptions(backend=kw["backend"], prompt_suite=kw["prompt_suite"],
+        "options": RunOptions(backend=kw["backend"], prompt_suite=prompt_suite.spec,
                               max_steps=kw["max_steps"], stable_ids=kw["stable_ids"],
                               agent_models=agent_models),
     }
     if record is not None:
         _same_as_recorded(request, record)
+        check_unchanged(prompt_suite, record.get("prompt_suite") or {})
     return request
 
 

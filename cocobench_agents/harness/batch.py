@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from cocobench_agents.episode_runner import ClientFactory, run_episode
+from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.store import RunFolder
 from cocobench_agents.models import ModelPool
@@ -23,16 +24,20 @@ ResultCallback = Callable[[dict[str, Any]], None]
 
 async def execute(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ClientFactory,
                   *, jobs: int = 1, on_result: ResultCallback | None = None,
-                  store_result: ResultCallback | None = None) -> None:
+                  store_result: ResultCallback | None = None,
+                  limit: SpendLimit | None = None,
+                  episode_timeout_s: float | None = None) -> None:
     """Run every episode, at most `jobs` at a time, longest step budget first, storing each
     result as it finishes (appended to the folder's results, unless `store_result` takes it),
-    then `on_result`."""
+    then `on_result`. Once `limit` is reached no further episode starts."""
     gate = asyncio.Semaphore(max(1, jobs))
     store = folder.append_result if store_result is None else store_result
 
     async def one(planned: PlannedEpisode) -> None:
         async with gate:
-            record = await run_one(planned, folder, pool)
+            if limit is not None and limit.reached():
+                return  # left pending: --resume with a higher limit runs it
+            record = await run_one(planned, folder, pool, timeout_s=episode_timeout_s)
         store(record)
         if on_result is not None:
             on_result(record)
@@ -56,17 +61,24 @@ def longest_first(episodes: Sequence[PlannedEpisode]) -> list[PlannedEpisode]:
     return sorted(episodes, key=lambda p: -(p.spec.budget or 0))
 
 
-async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactory
-                  ) -> dict[str, Any]:
-    """One episode → its result line (an infrastructure failure becomes an error line)."""
+async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactory, *,
+                  timeout_s: float | None = None) -> dict[str, Any]:
+    """One episode → its result line (an infrastructure failure, or running past `timeout_s`
+    of wall-clock time, becomes an error line)."""
     key, spec = planned.key, planned.spec
     started = time.perf_counter()
     try:
         controller = _controller(spec)
-        document, result = await run_episode(spec, pool, controller=controller)
+        document, result = await asyncio.wait_for(
+            run_episode(spec, pool, controller=controller), timeout_s)
         relative = folder.write_trajectory(key, document)
     except Exception as exc:  # noqa: BLE001 - one broken episode must not stop the run
-        return infra_error_record(planned, redact(repr(exc)), time.perf_counter() - started)
+        elapsed = time.perf_counter() - started
+        error = redact(repr(exc), _secrets(pool))
+        if isinstance(exc, TimeoutError) and timeout_s is not None and elapsed >= timeout_s:
+            error = (f"episode timed out after {timeout_s:g} s of wall-clock time "
+                     "(--episode-timeout)")
+        return infra_error_record(planned, error, elapsed)
     result = result.model_copy(update={
         "condition": key.condition, "epoch": key.epoch, "trajectory": relative,
         "elapsed_s": round(time.perf_counter() - started, 3)})
@@ -82,6 +94,12 @@ def infra_error_record(planned: PlannedEpisode, error: str, elapsed: float) -> d
             "agent_count": config.agent_count, "planner": spec.planner,
             "obs_mode": spec.obs_mode, "backend": spec.backend,
             "prompt_suite": spec.prompt_suite, "elapsed_s": round(elapsed, 3)}
+
+
+def _secrets(pool: ClientFactory) -> list[str]:
+    """The credentials the pool's settings carry (inline keys, URL passwords), to scrub."""
+    settings = getattr(pool, "settings", None)
+    return settings.secrets() if settings is not None else []
 
 
 def _controller(spec):

@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemainingColumn
 from rich.progress import Progress as RichProgress
 
-from cocobench_agents.harness.store import is_retryable
+from cocobench_agents.harness.infra import is_infra_failure
 
 #: Off a terminal, a status line every this many seconds (and at the end).
 PLAIN_STATUS_EVERY_S = 30.0
@@ -41,7 +41,7 @@ class Progress:
         self.done += 1
         self.ran += 1
         self.successes += int(record.get("task_success") or 0)
-        self.errors += is_retryable(record)
+        self.errors += is_infra_failure(record)
         usage = record.get("usage") or {}
         self.tokens += int(usage.get("prompt_tokens") or 0) + int(
             usage.get("completion_tokens") or 0)

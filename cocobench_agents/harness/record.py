@@ -10,8 +10,9 @@ from pathlib import Path
 from typing import Any
 
 from cocobench_agents import __version__
+from cocobench_agents.harness.infra import is_infra_failure
 from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.store import RunFolder, is_retryable, result_key
+from cocobench_agents.harness.store import RunFolder, result_key
 from cocobench_agents.models import ModelSettings, redact
 from cocobench_agents.prompts import load_prompt_suite
 
@@ -28,7 +29,7 @@ def run_record(out: str, request: dict[str, Any], settings: ModelSettings,
         "created_at": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
         "cocobench_agents": __version__,
         "versions": {"python": platform.python_version(), **_package_versions()},
-        "prompt_suite": {"spec": suite.spec, "version": suite.version},
+        "prompt_suite": suite.record(),  # spec, version, content hash (and a folder's path)
         "plan": {"sources": request["sources"], "task_ids": request["task_ids"],
                  "models": request["models"], "agent_models": request["agent_models"],
                  "conditions": [c.name for c in request["conditions"]],
@@ -37,7 +38,7 @@ def run_record(out: str, request: dict[str, Any], settings: ModelSettings,
                     "stable_ids": options.stable_ids},
         "model_settings": settings.to_record(),
         "request": _replayable_request(request),
-        "command": redact(" ".join(argv)),
+        "command": redact(" ".join(argv), settings.secrets()),
     }
 
 
@@ -65,8 +66,9 @@ def _package_versions() -> dict[str, str]:
 
 def pending_episodes(episodes: Sequence[PlannedEpisode], folder: RunFolder, *,
                      retry_errors: bool = False) -> list[PlannedEpisode]:
-    """The planned episodes without a result line (plus retryable ones, when asked)."""
+    """The planned episodes without a result line (plus infrastructure failures,
+    when asked: see `is_infra_failure`)."""
     # A later line (a retry) supersedes an earlier one.
     done = {result_key(record): record for record in folder.results()}
     return [p for p in episodes
-            if p.key not in done or (retry_errors and is_retryable(done[p.key]))]
+            if p.key not in done or (retry_errors and is_infra_failure(done[p.key]))]

@@ -128,9 +128,3 @@ def result_key(record: dict[str, Any]) -> EpisodeKey:
     """The episode a result line belongs to."""
     return EpisodeKey(record["model"], record["condition"], record["task_id"],
                       int(record.get("epoch") or 0))
-
-
-def is_retryable(record: dict[str, Any]) -> bool:
-    """Infrastructure failures and episodes that met backend errors (what --retry-errors
-    re-runs)."""
-    return bool(record.get("infra_error")) or int(record.get("backend_errors") or 0) > 0

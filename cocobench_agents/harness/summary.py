@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+from cocobench_agents.harness.infra import count_infra_failures
 from cocobench_agents.harness.store import result_key
 
 DIMS = ("D1", "D2", "D3", "D4")
@@ -14,7 +15,7 @@ HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DI
 
 def summary_rows(records: Iterable[dict[str, Any]]) -> list[list[Any]]:
     """One row per (model, condition): episodes, success rate, mean construct score overall
-    and per dimension (scored episodes only), legal-plan rate, episodes that failed to run."""
+    and per dimension (scored episodes only), legal-plan rate, infrastructure failures (`is_infra_failure`)."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for record in latest(records):
         groups.setdefault((record["model"], record["condition"]), []).append(record)
@@ -32,7 +33,7 @@ def _row(model: str, condition: str, rows: list[dict[str, Any]]) -> list[Any]:
     return [model, condition, len(rows), _rate([r["task_success"] for r in rows]),
             _mean_construct(ran), *(_mean_construct([r for r in ran if r.get("dim") == d])
                                    for d in DIMS),
-            _rate(legal), len(rows) - len(ran)]
+            _rate(legal), count_infra_failures(rows)]
 
 
 def _mean_construct(rows: list[dict[str, Any]]) -> str:

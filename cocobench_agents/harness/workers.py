@@ -40,9 +40,11 @@ def available_cores() -> int:
 
 def execute_in_workers(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                        settings: ModelSettings, *, jobs: int, workers: int,
-                       on_result: ResultCallback | None = None) -> None:
+                       on_result: ResultCallback | None = None,
+                       **run_options: Any) -> None:
     """Run every episode in `workers` processes sharing `jobs` (and each model's
-    `max_concurrency`) between them; append each result as it arrives, then `on_result`."""
+    `max_concurrency`) between them; append each result as it arrives, then `on_result`.
+    `run_options` (a spend limit, the episode timeout) go to `execute` in every worker."""
     workers = max(1, min(workers, jobs, len(episodes)))
     episodes = longest_first(episodes)  # dealt in turn: each worker gets long and short ones
     context = _context()
@@ -53,7 +55,7 @@ def execute_in_workers(episodes: Sequence[PlannedEpisode], folder: RunFolder,
             process = context.Process(
                 target=_work, name=f"cocobench-worker-{index}", daemon=True,
                 args=(episodes[index::workers], folder.path, _share_settings(settings, index,
-                      workers), _share(jobs, index, workers), send))
+                      workers), _share(jobs, index, workers), send, run_options))
             process.start()
             send.close()  # the worker holds the only sending end: EOF means it has ended
             running[receive] = process
@@ -88,12 +90,12 @@ def _collect(running: dict[Connection, Any], folder: RunFolder,
 
 
 def _work(episodes: list[PlannedEpisode], folder_path: Path, settings: ModelSettings,
-          jobs: int, send: Connection) -> None:
+          jobs: int, send: Connection, run_options: dict[str, Any]) -> None:
     # The parent owns Ctrl-C (it stops the workers); a worker must not outlive it either.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent()
     asyncio.run(execute_and_close(episodes, RunFolder(folder_path), ModelPool(settings),
-                                  jobs=jobs, store_result=send.send))
+                                  jobs=jobs, store_result=send.send, **run_options))
     send.close()
 
 

@@ -18,7 +18,7 @@ from .cache import ResponseCache, cache_key
 from .errors import ModelConfigError
 from .grammar import menu_grammar, wants_message
 from .litellm_client import LiteLLMClient, import_litellm
-from .messages import TRUNCATION_MARKER, build_messages, cap_reply, image_data_url, is_truncated
+from .messages import build_messages, cap_reply, image_data_url
 from .openai_http import OpenAIHTTPClient
 from .protocol import MenuOption, ModelClient, ModelError, ModelReply, ModelRequest
 from .registry import ModelPool
@@ -41,7 +41,6 @@ __all__ = [
     "REDACTED",
     "TEMPERATURE_AUTO",
     "TRANSPORTS",
-    "TRUNCATION_MARKER",
     "Completion",
     "GreedyClient",
     "LiteLLMClient",
@@ -70,7 +69,6 @@ __all__ = [
     "import_litellm",
     "is_builtin",
     "is_local_url",
-    "is_truncated",
     "menu_grammar",
     "recorded_replies",
     "redact",

@@ -8,23 +8,30 @@ import hashlib
 import json
 import os
 import tempfile
+import warnings
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from .protocol import ModelReply
 
-CACHE_FORMAT = 1  # bump when the key or the file layout changes: old entries then miss
+CACHE_FORMAT = 2  # bump when the key or the file layout changes: old entries then miss
 _DATA_URL_PREFIX = "data:"
 
 
 def cache_key(
-    model: str, messages: list[dict[str, Any]], params: dict[str, Any], sample_index: int
+    model: str, messages: list[dict[str, Any]], params: dict[str, Any], sample_index: int,
+    *, endpoint: Mapping[str, Any] | None = None,
 ) -> str:
-    """The hex sha256 naming a request. Images count by the sha256 of their data URL, so
-    keys stay cheap to compute and the files small; where the model is served (api_base),
-    timeouts and keys are not part of it."""
+    """The hex sha256 naming a request: the model, the messages, every request parameter,
+    the sample, and `endpoint`: where and how the model is reached and what is kept of its
+    reply (`RemoteClient.cache_scope`: transport, api_base, the reply cap), since the same
+    model name at two endpoints is two models. Images count by the sha256 of their data URL,
+    so keys stay cheap to compute and the files small. Timeouts, retries and keys are not
+    part of it (they do not change a reply)."""
     payload = {
         "format": CACHE_FORMAT,
+        "endpoint": dict(endpoint or {}),
         "model": model,
         "messages": _hash_images(messages),
         "params": params,
@@ -49,11 +56,14 @@ class ResponseCache:
 
     Writes are atomic (a temporary file in the same folder, then `os.replace`), so concurrent
     writers of one key, threads or processes, leave one complete file; a reader never sees a
-    partial one. An unreadable or foreign file is a miss.
+    partial one. An unreadable or foreign file is a miss. A write that fails (full disk,
+    read-only folder) is counted in `write_failures` and warned about once: the reply it
+    was storing is still used.
     """
 
     def __init__(self, directory: str | Path) -> None:
         self.directory = Path(directory)
+        self.write_failures = 0
 
     def path(self, key: str) -> Path:
         """The file holding `key`."""
@@ -74,12 +84,25 @@ class ResponseCache:
                 latency_s=float(reply.get("latency_s", 0.0)),
                 retries=int(reply.get("retries", 0)),
                 cached=True,
+                truncated_chars=int(reply.get("truncated_chars", 0)),
             )
         except (OSError, ValueError, KeyError, TypeError, AttributeError):
             return None
 
-    def put(self, key: str, reply: ModelReply, *, model: str, sample_index: int) -> Path:
-        """Store `reply` under `key`; returns the file written."""
+    def put(self, key: str, reply: ModelReply, *, model: str, sample_index: int) -> Path | None:
+        """Store `reply` under `key`; returns the file written, or None when it could not be
+        written (counted and warned about, never raised: the caller keeps its reply)."""
+        try:
+            return self._write(key, reply, model=model, sample_index=sample_index)
+        except OSError as exc:
+            self.write_failures += 1
+            if self.write_failures == 1:
+                warnings.warn(f"the response cache {self.directory} cannot be written "
+                              f"({exc.strerror or exc}); replies are used but not cached",
+                              RuntimeWarning, stacklevel=2)
+            return None
+
+    def _write(self, key: str, reply: ModelReply, *, model: str, sample_index: int) -> Path:
         target = self.path(key)
         target.parent.mkdir(parents=True, exist_ok=True)
         record = {

@@ -57,8 +57,11 @@ class LiteLLMClient(RemoteClient):
             # instead of failing the call.
             "drop_params": True,
         }
-        if self.settings.api_base:
-            kwargs["api_base"] = self.settings.api_base
+        api_base, auth_headers = self.settings.endpoint()
+        if api_base:
+            kwargs["api_base"] = api_base
+        if auth_headers:
+            kwargs["extra_headers"] = {**(kwargs.get("extra_headers") or {}), **auth_headers}
         api_key = self.settings.call_key()
         if api_key:
             kwargs["api_key"] = api_key

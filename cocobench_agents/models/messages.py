@@ -7,9 +7,6 @@ from typing import Any
 
 from .protocol import ModelRequest
 
-#: Appended to a reply cut at `ModelSettings.max_reply_chars`; followed by the dropped count.
-TRUNCATION_MARKER = "\n[cocobench: reply truncated, "
-
 
 def image_data_url(png: bytes) -> str:
     """A ``data:image/png;base64,…`` URL for one PNG frame."""
@@ -28,14 +25,10 @@ def build_messages(request: ModelRequest) -> list[dict[str, Any]]:
     return [{"role": "user", "content": content}]
 
 
-def cap_reply(text: str, max_chars: int) -> tuple[str, bool]:
-    """`text` cut to `max_chars` characters with a marker saying how much was dropped,
-    and whether it was cut."""
-    if len(text) <= max_chars:
-        return text, False
-    return f"{text[:max_chars]}{TRUNCATION_MARKER}{len(text) - max_chars} chars dropped]", True
+def cap_reply(text: str, max_chars: int) -> tuple[str, int]:
+    """The first `max_chars` characters of `text`, and how many were dropped.
 
-
-def is_truncated(text: str) -> bool:
-    """Whether a reply text was cut by `cap_reply`."""
-    return TRUNCATION_MARKER in text
+    Nothing is added to the text: a note in it would be parsed as if the model had written it
+    (the bare-integer fallback once read the dropped count as an action id). The count goes
+    into `ModelReply.truncated_chars` instead."""
+    return text[:max_chars], max(0, len(text) - max_chars)

@@ -48,7 +48,8 @@ class OpenAIHTTPClient(RemoteClient):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        self.url = (self.settings.api_base or OPENAI_API_BASE).rstrip("/") + "/chat/completions"
+        api_base = self.settings.endpoint()[0]
+        self.url = (api_base or OPENAI_API_BASE).rstrip("/") + "/chat/completions"
         self._headers = _headers(self.settings)
         self._session: Any = None  # one aiohttp session, for the event loop that opened it
         self._session_loop: asyncio.AbstractEventLoop | None = None
@@ -59,10 +60,15 @@ class OpenAIHTTPClient(RemoteClient):
         import aiohttp
 
         body = {**params, "model": self.model.removeprefix(OPENAI_PREFIX), "messages": messages}
-        # LiteLLM sends `extra_body` fields as top-level body fields; so do we.
+        # LiteLLM sends `extra_body` fields as top-level body fields, and `api_key` /
+        # `extra_headers` as headers; so do we.
         body.update(body.pop("extra_body", None) or {})
+        headers = self._headers
+        if "api_key" in body or "extra_headers" in body:
+            headers = {**headers, **_key_header(body.pop("api_key", None)),
+                       **(body.pop("extra_headers", None) or {})}
         async with self._open_session().post(
-            self.url, data=orjson.dumps(body), headers=self._headers,
+            self.url, data=orjson.dumps(body), headers=headers,
             timeout=aiohttp.ClientTimeout(total=timeout_s),
         ) as response:
             raw = await response.read()
@@ -129,11 +135,13 @@ class OpenAIHTTPClient(RemoteClient):
 
 
 def _headers(settings: ModelSettings) -> dict[str, str]:
-    headers = {"Content-Type": "application/json"}
     key = settings.call_key() or os.environ.get(OPENAI_KEY_ENV)
-    if key:
-        headers["Authorization"] = f"Bearer {key}"
-    return headers
+    # URL credentials (HTTP Basic) take the Authorization header over the key.
+    return {"Content-Type": "application/json", **_key_header(key), **settings.endpoint()[1]}
+
+
+def _key_header(key: str | None) -> dict[str, str]:
+    return {"Authorization": f"Bearer {key}"} if key else {}
 
 
 async def _close_when_cancelled(session: Any) -> None:

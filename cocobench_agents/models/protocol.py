@@ -29,7 +29,9 @@ class ModelRequest:
 
 @dataclass(frozen=True)
 class ModelReply:
-    """A model's answer and what it cost."""
+    """A model's answer and what it cost when the model gave it. A reused reply (`cached`:
+    from the response cache; `replayed`: from an earlier run's trajectory) keeps those
+    figures, but costs nothing now: decision records bill it 0 and keep them as "saved"."""
 
     text: str
     prompt_tokens: int = 0
@@ -38,6 +40,15 @@ class ModelReply:
     latency_s: float = 0.0
     retries: int = 0
     cached: bool = False
+    replayed: bool = False
+    # Characters cut off the end of `text` by `ModelSettings.max_reply_chars` (0: none). Kept
+    # apart from `text` so that parsing only ever reads what the model wrote.
+    truncated_chars: int = 0
+
+    @property
+    def reused(self) -> bool:
+        """Whether no model was called for this reply now."""
+        return self.cached or self.replayed
 
 
 @dataclass

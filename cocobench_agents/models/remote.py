@@ -99,6 +99,13 @@ class RemoteClient:
             params["extra_body"] = extra_body
         return params
 
+    def cache_scope(self) -> dict[str, Any]:
+        """What shapes a stored reply besides the request itself (part of the cache key):
+        the transport, the endpoint, and the cap the reply was cut to."""
+        s = self.settings
+        return {"transport": self.transport, "api_base": (s.api_base or "").rstrip("/") or None,
+                "max_reply_chars": s.max_reply_chars}
+
     async def complete(self, request: ModelRequest) -> ModelReply:
         """Answer `request` under the run-level retry policy; raise `ModelError` otherwise.
         (A planner applies its own `RetryPolicy` to `attempt` instead.)"""
@@ -112,7 +119,8 @@ class RemoteClient:
         params = self.call_params(request)
         key = None
         if self.cache is not None:
-            key = cache_key(self.model, messages, params, request.sample_index)
+            key = cache_key(self.model, messages, params, request.sample_index,
+                            endpoint=self.cache_scope())
             hit = self.cache.get(key)
             if hit is not None:
                 return hit
@@ -144,8 +152,9 @@ class RemoteClient:
                 raise EmptyCompletion("the model returned an empty completion")
         except Exception as exc:  # noqa: BLE001 - every failure must become a ModelError
             raise self._error(exc, time.perf_counter() - start, spent) from None
-        text, _ = cap_reply(completion.text, s.max_reply_chars)
-        return ModelReply(text=text, latency_s=time.perf_counter() - start, **spent)
+        text, dropped = cap_reply(completion.text, s.max_reply_chars)
+        return ModelReply(text=text, latency_s=time.perf_counter() - start,
+                          truncated_chars=dropped, **spent)
 
     def _kind(self, exc: BaseException) -> tuple[str, bool]:
         if isinstance(exc, EmptyCompletion):
@@ -165,6 +174,6 @@ class RemoteClient:
         status = status_code(exc)
         if status is not None:
             extra["status_code"] = status
-        return ModelError(kind=kind, message=redact(message, [self.settings.api_key()]),
+        return ModelError(kind=kind, message=redact(message, self.settings.secrets()),
                           latency_s=latency_s, extra=extra, transient=transient,
                           retry_after_s=retry_after_s(exc))

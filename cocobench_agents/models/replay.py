@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from .errors import ModelConfigError
 from .protocol import ModelError, ModelReply, ModelRequest
@@ -12,8 +13,10 @@ from .protocol import ModelError, ModelReply, ModelRequest
 TRAJECTORY_FILE = "trajectory.json"
 
 
-def recorded_replies(data: dict) -> dict[str | None, list[str]]:
-    """agent (None for a centralized planner) → its recorded raw outputs, in order.
+def recorded_replies(data: dict) -> dict[str | None, list[ModelReply]]:
+    """agent (None for a centralized planner) → its recorded replies, in order, marked
+    ``replayed`` and carrying what the original model call cost (its ``saved`` figures if it
+    was itself reused).
 
     Read from the top-level ``planner_decisions`` list when present, else from the
     ``policy_decision`` of the ``trajectory`` items (the reference's format). Decisions with no
@@ -27,15 +30,30 @@ def recorded_replies(data: dict) -> dict[str | None, list[str]]:
             for item in (items if isinstance(items, list) else [])
             if isinstance(item, dict) and isinstance(item.get("policy_decision"), dict)
         ]
-    replies: dict[str | None, list[str]] = {}
+    replies: dict[str | None, list[ModelReply]] = {}
     for decision in decisions:
         if not isinstance(decision, dict):
             continue
         raw = decision.get("raw_output")
         if isinstance(raw, str):
             agent = decision.get("agent")
-            replies.setdefault(None if agent is None else str(agent), []).append(raw)
+            replies.setdefault(None if agent is None else str(agent), []).append(
+                ModelReply(text=raw, replayed=True, **_original_usage(decision)))
     return replies
+
+
+def _original_usage(decision: dict) -> dict[str, Any]:
+    """What the recorded call cost the model (0 for figures a record lacks or garbles)."""
+    saved = decision.get("saved")
+    usage = saved if isinstance(saved, dict) else decision
+    out: dict[str, Any] = {}
+    for name, kind in (("prompt_tokens", int), ("completion_tokens", int),
+                       ("cost_usd", float), ("latency_s", float)):
+        try:
+            out[name] = kind(usage.get(name) or 0)
+        except (TypeError, ValueError):
+            out[name] = kind(0)
+    return out
 
 
 def _episode_parts(episode: str) -> list[str]:
@@ -114,7 +132,7 @@ class ReplaySource:
             )
         return matches[0]
 
-    def replies(self, episode: str) -> dict[str | None, list[str]]:
+    def replies(self, episode: str) -> dict[str | None, list[ModelReply]]:
         """agent → recorded replies of `episode`."""
         return recorded_replies(self._load(self.find(episode)))
 
@@ -130,11 +148,11 @@ class ReplayClient:
         self.source = source
         self.episode = episode
         self.agent = agent
-        self._replies: Sequence[str] | None = None
+        self._replies: Sequence[ModelReply] | None = None
         self._next = 0
 
     async def complete(self, request: ModelRequest) -> ModelReply:
-        """The next recorded reply."""
+        """The next recorded reply (``replayed``: billed 0, its original cost "saved")."""
         if self._replies is None:
             self._replies = self.source.replies(self.episode).get(self.agent, [])
         if self._next >= len(self._replies):
@@ -146,4 +164,4 @@ class ReplayClient:
                 extra={"replayed": len(self._replies)},
             )
         self._next += 1
-        return ModelReply(text=self._replies[self._next - 1])
+        return self._replies[self._next - 1]

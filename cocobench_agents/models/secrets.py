@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Iterable, Mapping
+from urllib.parse import urlsplit, urlunsplit
 
 #: Environment variables whose names end like this hold secrets.
 SECRET_SUFFIXES = ("_API_KEY", "_TOKEN", "_SECRET")
 #: What a secret is replaced with.
 REDACTED = "[REDACTED]"
+#: Mapping keys whose values are secrets wherever they appear (``--extra`` JSON, headers).
+SECRET_KEY = re.compile(r"api[_-]?key|token|secret|password|passwd|authorization|credential|"
+                        r"cookie", re.IGNORECASE)
 # Values this short are too likely to occur by chance ("1", "true") to be scrubbed safely.
 _MIN_SECRET_LEN = 6
 
@@ -56,4 +61,46 @@ def _scrub_obj(obj: object, values: list[str]) -> object:
         return {_scrub_obj(k, values): _scrub_obj(v, values) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [_scrub_obj(v, values) for v in obj]
+    return obj
+
+
+def named_secrets(obj: object) -> list[str]:
+    """The string values held under secret-looking keys anywhere in a JSON-like value."""
+    found: list[str] = []
+    if isinstance(obj, Mapping):
+        for key, value in obj.items():
+            if isinstance(key, str) and SECRET_KEY.search(key) and isinstance(value, str):
+                found.append(value)
+            else:
+                found.extend(named_secrets(value))
+    elif isinstance(obj, (list, tuple)):
+        for value in obj:
+            found.extend(named_secrets(value))
+    return found
+
+
+def url_credentials(url: str | None) -> list[str]:
+    """The ``user:password`` of a URL (both parts), if it has any."""
+    if not url or "@" not in url:
+        return []
+    parts = urlsplit(url)
+    return [v for v in (parts.username, parts.password) if v]
+
+
+def redact_url(url: str | None) -> str | None:
+    """`url` with its ``user:password@`` part replaced by `REDACTED`."""
+    if not url_credentials(url):
+        return url
+    parts = urlsplit(url)
+    host = parts.netloc.rpartition("@")[2]
+    return urlunsplit(parts._replace(netloc=f"{REDACTED}@{host}"))
+
+
+def redact_named(obj: object) -> object:
+    """A copy of a JSON-like value whose secret-looking keys have their values redacted."""
+    if isinstance(obj, Mapping):
+        return {k: REDACTED if isinstance(k, str) and SECRET_KEY.search(k) and v else
+                redact_named(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [redact_named(v) for v in obj]
     return obj

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
+import base64
 import ipaddress
 import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlsplit
+from urllib.parse import unquote, urlsplit, urlunsplit
 
-from .secrets import redact_obj
+from .secrets import named_secrets, redact_named, redact_obj, redact_url, url_credentials
 
 #: `temperature` value meaning "as the reference": 0 for OpenAI model names starting with
 #: gpt/o1/o3/o4, not sent otherwise.
@@ -61,7 +62,8 @@ class ModelSettings:
     * `seed`: sent as ``seed + sample_index`` when set; also seeds the ``random`` built-in.
     * `backoff_s` / `backoff_max_s`: exponential backoff with full jitter between retries
       (``random(0, min(backoff_max_s, backoff_s × 2^n))``).
-    * `max_reply_chars`: longer replies are truncated and marked (see `TRUNCATION_MARKER`).
+    * `max_reply_chars`: longer replies are cut to this length; the number of characters
+      dropped is `ModelReply.truncated_chars`, never a note in the text.
     * `transport`: ``"litellm"`` (default) or ``"http"``: ``openai/NAME`` models posted straight
       to ``{api_base}/chat/completions``, for runs the LiteLLM client's CPU cost would bound.
     """
@@ -128,6 +130,23 @@ class ModelSettings:
             return self.api_key()
         return LOCAL_PLACEHOLDER_KEY if is_local_url(self.api_base) else None
 
+    def secrets(self) -> list[str]:
+        """Every secret these settings carry: the key, values under secret-looking names in
+        `extra_params` (``api_key``, ``Authorization`` headers, …), URL credentials."""
+        return [v for v in (self.api_key(), *named_secrets(self.extra_params),
+                            *url_credentials(self.api_base)) if v]
+
+    def endpoint(self) -> tuple[str | None, dict[str, str]]:
+        """`api_base` without ``user:password@``, and the headers those credentials become
+        (HTTP Basic authorization; clients do not send URL credentials themselves)."""
+        if not url_credentials(self.api_base):
+            return self.api_base, {}
+        parts = urlsplit(self.api_base)
+        user, password = unquote(parts.username or ""), unquote(parts.password or "")
+        token = base64.b64encode(f"{user}:{password}".encode()).decode("ascii")
+        url = urlunsplit(parts._replace(netloc=parts.netloc.rpartition("@")[2]))
+        return url, {"Authorization": f"Basic {token}"}
+
     def temperature_for(self, model: str) -> float | None:
         """The temperature to send for `model`, or None to send none."""
         if self.temperature == TEMPERATURE_AUTO:
@@ -138,10 +157,12 @@ class ModelSettings:
     def to_record(self) -> dict[str, Any]:
         """A JSON-safe description for run metadata: no key, only the variable's name."""
         record = {f.name: getattr(self, f.name) for f in fields(self)}
-        record["extra_params"] = _json_safe(self.extra_params)
+        # extra_params may carry headers or tokens a user put there by hand; the endpoint,
+        # user:password@.
+        record["extra_params"] = redact_named(_json_safe(self.extra_params))
+        record["api_base"] = redact_url(self.api_base)
         record["cache_dir"] = None if self.cache_dir is None else str(self.cache_dir)
-        # extra_params may carry headers or tokens a user put there by hand.
-        return redact_obj(record, [self.api_key()])  # type: ignore[return-value]
+        return redact_obj(record, self.secrets())  # type: ignore[return-value]
 
 
 def _json_safe(value: Any) -> Any:

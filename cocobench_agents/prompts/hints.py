@@ -12,14 +12,15 @@ def coordination_hint(config: TaskConfig, suite: PromptSuite) -> str:
         return ""
     constraints = config.task_constraints
     if constraints.get("resource_exclusion"):
-        return suite.template("hint_resource")
+        return suite.render("hint_resource")
     relay = constraints.get("producer_consumer")
     if not relay:
         return ""
     alias = {oid: name for name, oid in config.init_state.objects.items()}
     buffer = relay.get("buffer")
     targets = relay.get("targets") or []
-    return suite.template("hint_relay").format(
+    return suite.render(
+        "hint_relay",
         buffer=alias.get(buffer, buffer),
         producer=", ".join(sorted(config.producers())) or "the producer",
         consumer=", ".join(sorted(config.consumers())) or "the consumer",

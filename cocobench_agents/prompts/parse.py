@@ -17,26 +17,32 @@ class ParsedReply:
     """What a reply asks for.
 
     status: `action`, `done`, `parse_error` or `invalid_action_id`;
-    mode: `action_line`, `bare_integer` or None (nothing usable found).
+    action_id: the menu id chosen (status `action` only);
+    mode: `action_line`, `bare_integer` or None (nothing usable found);
+    choice: the id exactly as the model wrote it (`"12"`, `"007"`, a 5,000-digit number).
     """
 
     status: str
     action_id: int | None = None
     mode: str | None = None
     error: str | None = None
+    choice: str | None = None
 
     @property
     def raw_choice(self) -> str | None:
         """The choice as the reference records it (`"12"`, `"DONE"`)."""
-        if self.status == "done":
-            return "DONE"
-        return None if self.action_id is None else str(self.action_id)
+        return "DONE" if self.status == "done" else self.choice
 
 
 def parse_reply(text: str | None, menu_ids: Collection[int]) -> ParsedReply:
     """The first `ACTION:` line, else the first bare integer anywhere (it may come from the
-    REASON text — the reference's behaviour); ids not in `menu_ids` are invalid."""
-    text = text or ""
+    REASON text — the reference's behaviour); ids not in `menu_ids` are invalid.
+
+    Never raises: whatever the model wrote is its own protocol outcome, never a harness error.
+    The id is matched as text against the menu, as the reference does (so `"007"` is not the
+    id 7), and never converted on its own: an absurdly long number is just not on the menu.
+    """
+    text = text if isinstance(text, str) else ""
     match = ACTION_LINE.search(text)
     mode = "action_line"
     if match is None:
@@ -46,14 +52,14 @@ def parse_reply(text: str | None, menu_ids: Collection[int]) -> ParsedReply:
     choice = match.group(1)
     if choice.upper() == "DONE":
         return ParsedReply("done", mode=mode)
-    action_id = int(choice)
-    # Compared as text, as the reference does: "007" is not the id 7.
-    if choice not in {str(i) for i in menu_ids}:
-        return ParsedReply("invalid_action_id", action_id, mode, "action id not in current menu")
-    return ParsedReply("action", action_id, mode)
+    action_id = {str(i): i for i in menu_ids}.get(choice)
+    if action_id is None:
+        return ParsedReply("invalid_action_id", None, mode, "action id not in current menu",
+                           choice)
+    return ParsedReply("action", action_id, mode, choice=choice)
 
 
 def parse_message(text: str | None) -> str:
     """The first `MSG:` line's text, stripped and cut to 200 characters ("" if none)."""
-    match = MESSAGE_LINE.search(text or "")
+    match = MESSAGE_LINE.search(text if isinstance(text, str) else "")
     return match.group(1).strip()[:MESSAGE_LIMIT] if match else ""

@@ -25,14 +25,13 @@ class PromptInputs:
 
 def render_centralized(suite: PromptSuite, inputs: PromptInputs) -> str:
     """The centralized planner's prompt (one planner, every agent's menu)."""
-    return suite.template("centralized").format(**_team_fields(suite, inputs))
+    return suite.render("centralized", **_team_fields(suite, inputs))
 
 
 def render_leader(suite: PromptSuite, inputs: PromptInputs) -> str:
     """The leader–worker strategy's leader prompt: one instruction per robot."""
     reply_format = "\n".join(f"{a}: <instruction>" for a in inputs.agents)
-    return suite.template("leader").format(**_team_fields(suite, inputs),
-                                           reply_format=reply_format)
+    return suite.render("leader", **_team_fields(suite, inputs), reply_format=reply_format)
 
 
 def _team_fields(suite: PromptSuite, inputs: PromptInputs) -> dict[str, object]:
@@ -41,13 +40,13 @@ def _team_fields(suite: PromptSuite, inputs: PromptInputs) -> dict[str, object]:
     state_lines = [f"  {a}: holding={_holding(inputs.inventories.get(a))}" for a in inputs.agents]
     return {
         "n": len(inputs.agents), "agents": agents,
-        "view": suite.template(f"view_{inputs.obs_mode}_centralized").format(agents=agents),
+        "view": suite.render(f"view_{inputs.obs_mode}_centralized", agents=agents),
         "goal": inputs.goal_text,
         "progress_section": _progress(suite, inputs),
         "hint": _hint(inputs),
         "menu": "\n".join(inputs.menu_lines),
         "history_section": _history(suite, inputs, "centralized"),
-        "state": suite.template("state_centralized").format(agent_lines="\n".join(state_lines)),
+        "state": suite.render("state_centralized", agent_lines="\n".join(state_lines)),
     }
 
 
@@ -59,11 +58,12 @@ def render_distributed(suite: PromptSuite, inputs: PromptInputs, me: str, broadc
         window = suite.setting("message_window", 6)
         others = [m for m in inputs.messages if m.get("agent") != me][-window:]
         board = "\n".join(f"  {m.get('agent')}: {m.get('text')}" for m in others)
-        comm = suite.template("comm_block").format(board=board or "  (no messages yet)")
-        msg_hint = suite.template("msg_hint")
-    return suite.template("distributed").format(
+        comm = suite.render("comm_block", board=board or "  (no messages yet)")
+        msg_hint = suite.render("msg_hint")
+    return suite.render(
+        "distributed",
         me=me, n=len(inputs.agents), agents=", ".join(inputs.agents),
-        view=suite.template(f"view_{inputs.obs_mode}_distributed"),
+        view=suite.render(f"view_{inputs.obs_mode}_distributed"),
         goal=inputs.goal_text,
         progress_section=_progress(suite, inputs),
         hint=_hint(inputs), comm=comm, msg_hint=msg_hint,
@@ -76,7 +76,7 @@ def render_distributed(suite: PromptSuite, inputs: PromptInputs, me: str, broadc
 def _progress(suite: PromptSuite, inputs: PromptInputs) -> str:
     if "no-progress" in suite.variants:
         return ""
-    return suite.template("progress_section").format(goal_progress=inputs.progress_text)
+    return suite.render("progress_section", goal_progress=inputs.progress_text)
 
 
 def _history(suite: PromptSuite, inputs: PromptInputs, kind: str) -> str:
@@ -84,8 +84,7 @@ def _history(suite: PromptSuite, inputs: PromptInputs, kind: str) -> str:
         return ""
     window = suite.setting("history_window", 6)
     lines = [f"  {i}. {h}" for i, h in enumerate(list(inputs.history)[-window:], 1)]
-    return suite.template(f"history_section_{kind}").format(
-        history="\n".join(lines) or "  (none yet)")
+    return suite.render(f"history_section_{kind}", history="\n".join(lines) or "  (none yet)")
 
 
 def _hint(inputs: PromptInputs) -> str:

@@ -30,7 +30,7 @@ def model_decision(*, policy: str, model: str, agent: str | None, step_index: in
         "prompt_hash": prompt_hash(prompt),
     }
     if reply is not None:
-        record.update(reply_fields(reply), cached=reply.cached)
+        record.update(reply_fields(reply))
     if error is not None:
         record.update(error=str(error), error_kind=error.kind, retries=error.retries,
                       latency_s=round(error.latency_s, 4))
@@ -42,10 +42,20 @@ def model_decision(*, policy: str, model: str, agent: str | None, step_index: in
 
 
 def reply_fields(reply: ModelReply) -> dict[str, Any]:
-    """What a decision record keeps of a model's reply: its text, latency, usage, retries."""
-    return {"raw_output": reply.text, "latency_s": round(reply.latency_s, 4),
-            "prompt_tokens": reply.prompt_tokens, "completion_tokens": reply.completion_tokens,
-            "cost_usd": reply.cost_usd, "retries": reply.retries}
+    """What a decision record keeps of a model's reply: its text, latency, usage, retries,
+    whether it was reused (``cached``, ``replayed``) and, for a reply cut at the size cap,
+    how many characters were dropped from its end. A reused reply was not paid for now: its
+    tokens, cost, latency and retries are 0, and what its model call had cost is kept under
+    ``saved``."""
+    usage = {"latency_s": round(reply.latency_s, 4), "prompt_tokens": reply.prompt_tokens,
+             "completion_tokens": reply.completion_tokens, "cost_usd": reply.cost_usd}
+    fields: dict[str, Any] = {"raw_output": reply.text, **usage, "retries": reply.retries,
+                              "cached": reply.cached, "replayed": reply.replayed}
+    if reply.reused:
+        fields.update(dict.fromkeys(usage, 0), retries=0, saved=usage)
+    if reply.truncated_chars:
+        fields["reply_truncated_chars"] = reply.truncated_chars
+    return fields
 
 
 def stop_decision(*, policy: str, model: str | None, agent: str | None, step_index: int,

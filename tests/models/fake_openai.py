@@ -181,6 +181,7 @@ class FakeOpenAI:
                 body = json.loads(self.rfile.read(length) or b"{}")
                 headers = {k.lower(): v for k, v in self.headers.items()}
                 behaviour, generation, stopping = server._start(body, headers)
+                counted = True
                 try:
                     if behaviour.delay_s and stopping.wait(behaviour.delay_s):
                         return
@@ -188,10 +189,16 @@ class FakeOpenAI:
                     if behaviour.echo_auth:
                         auth = self.headers.get("Authorization", "")
                         payload = {"error": {"message": f"Incorrect API key provided: {auth}"}}
+                    # No longer in flight once the reply is decided, BEFORE it is sent: a
+                    # client that has read it may send its next request at once, possibly
+                    # before this thread runs again on a loaded machine.
+                    server._done(generation)
+                    counted = False
                     self._send(behaviour.status, payload, behaviour.headers, behaviour.raw)
                 except (BrokenPipeError, ConnectionResetError):
                     pass  # the client gave up (a timeout test)
                 finally:
-                    server._done(generation)
+                    if counted:
+                        server._done(generation)
 
         return Handler

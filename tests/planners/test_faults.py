@@ -67,9 +67,9 @@ EXPECTED = {
     "too-slow": ("backend_error", True),
     "empty": ("backend_error", True),  # an empty completion counts as transient
     "malformed": ("parse_error", False),  # no retry for a parse error, no re-prompt
-    # Truncated before its ACTION line (the truncation marker's number is then the first
-    # bare integer: an invalid id, by the reference's parse rule).
-    "oversized": ("invalid_action_id", False),
+    # Cut before its ACTION line: what remains has no number, so nothing to parse (the fact
+    # of the cut is recorded beside the text, never parsed as part of it).
+    "oversized": ("parse_error", False),
     "healthy": ("done", False),
 }
 
@@ -116,7 +116,9 @@ def test_decisions_record_what_happened(batch):
     assert decisions["too-slow"]["error_kind"] == "timeout"
     assert decisions["empty"]["error_kind"] == "empty"
     assert decisions["malformed"]["raw_output"] == "I would rather not say."
-    assert len(decisions["oversized"]["raw_output"]) < 4_200
+    assert decisions["oversized"]["raw_output"] == ("REASON: " + "blah " * 20_000)[:4_000]
+    assert decisions["oversized"]["reply_truncated_chars"] == 100_021 - 4_000
+    assert "reply_truncated_chars" not in decisions["malformed"]
 
 
 def test_the_api_key_is_written_nowhere(batch):

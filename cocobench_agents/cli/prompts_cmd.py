@@ -1,0 +1,148 @@
+"""`cocobench prompts`: list, export and preview prompt suites (docs/prompts.md).
+
+Nothing here calls a model: `show` renders the first prompt through the planners' own code
+path (`EpisodeTools`) on the embedded simulator, without importing LiteLLM or LangGraph.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from benchmark_adapter.episode import Episode
+from benchmark_adapter.tasks import TaskConfig, load_tasks
+from cocobench_agents.cli.tables import table
+from cocobench_agents.graphs import planner_spec
+from cocobench_agents.prompts import (
+    DEFAULT_SUITE,
+    VARIANTS,
+    PromptSuite,
+    PromptSuiteError,
+    available_suites,
+    load_prompt_suite,
+    shipped_suite_files,
+)
+from cocobench_agents.tools import EpisodeTools
+
+DEFAULT_TASKS = "cocobench-240"
+# How each built-in strategy asks for its first decision: the team prompt, one agent's prompt
+# (with or without the message board), or the leader's prompt.
+FIRST_PROMPT = {"centralized": "team", "decentralized": "agent",
+                "decentralized-broadcast": "agent+board", "leader-worker": "leader"}
+
+
+@click.group("prompts")
+def prompts_command() -> None:
+    """List, export and preview prompt suites."""
+
+
+@prompts_command.command("list")
+def list_command() -> None:
+    """The shipped prompt suites and the variants any suite takes."""
+    rows = []
+    for name in available_suites():
+        suite = load_prompt_suite(name)
+        rows.append([name, suite.version, suite.content_hash[:12],
+                     str(suite.settings.get("description", ""))])
+    click.echo(table(["suite", "version", "hash", "description"], rows))
+    click.echo(table(["variant (+NAME)", "effect"], [[k, v] for k, v in VARIANTS.items()]))
+
+
+@prompts_command.command("export")
+@click.argument("name")
+@click.argument("directory", type=click.Path(path_type=Path))
+def export_command(name: str, directory: Path) -> None:
+    """Write the shipped suite NAME into DIRECTORY (new or empty) as a starting point; run it
+    with --prompt-suite DIRECTORY."""
+    files = shipped_suite_files(name)
+    if directory.exists() and (not directory.is_dir() or any(directory.iterdir())):
+        raise PromptSuiteError(f"{directory}: exists and is not an empty folder; export into "
+                               f"a new or empty one")
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        for file_name, data in sorted(files.items()):
+            (directory / file_name).write_bytes(data)
+    except OSError as exc:
+        raise PromptSuiteError(f"{directory}: cannot write: {exc.strerror or exc}") from None
+    click.echo(f"wrote {len(files)} files of {name} to {directory}; edit them, preview with "
+               f"`cocobench prompts show --suite {directory} --task ID`, run with "
+               f"--prompt-suite {directory}")
+
+
+@prompts_command.command("show")
+@click.option("--suite", "--prompt-suite", "suite_spec", default=DEFAULT_SUITE,
+              show_default=True, metavar="NAME|PATH",
+              help="Prompt suite with optional variants: cocobench-v1+no-hint, ./my-suite.")
+@click.option("--task", required=True, metavar="ID|PATH",
+              help="A task config file, or an instance id of --source.")
+@click.option("--source", default=DEFAULT_TASKS, show_default=True, metavar="SUITE|PATH",
+              help="Where --task ID is looked up: a task suite name, file or folder.")
+@click.option("--planner", default="centralized", show_default=True,
+              help=f"One of: {', '.join(FIRST_PROMPT)}.")
+@click.option("--agent", default=None,
+              help="The agent whose prompt to show (decentralized planners; default: the "
+                   "first).")
+@click.option("--obs", "obs_mode", type=click.Choice(["image", "blind"]), default="image",
+              show_default=True, help="Observation mode.")
+def show_command(suite_spec: str, task: str, source: str, planner: str, agent: str | None,
+                 obs_mode: str) -> None:
+    """Print the prompt a model gets at the first step (stdout), and what it is (stderr)."""
+    suite = load_prompt_suite(suite_spec)
+    kind = _first_prompt_kind(planner, agent)
+    config = _task(task, source)
+    if kind.startswith("agent"):
+        agent = agent or config.agent_ids[0]
+        if agent not in config.agent_ids:
+            raise click.BadParameter(f"{agent!r} is not an agent of {config.task_id} "
+                                     f"({', '.join(config.agent_ids)})", param_hint="--agent")
+    tools = EpisodeTools(Episode(config), suite, obs_mode=obs_mode)
+    tools.start()
+    if kind == "leader":
+        text, _ = tools.leader_prompt([], with_images=False)
+    else:
+        text, _, _ = tools.prompt(agent, [], broadcast=kind == "agent+board",
+                                  with_images=False)
+    click.echo(_caption(suite, config, planner, agent, obs_mode), err=True)
+    click.echo(text)
+
+
+def _first_prompt_kind(planner: str, agent: str | None) -> str:
+    name = planner_spec(planner).name
+    kind = FIRST_PROMPT.get(name)
+    if kind is None:
+        raise click.BadParameter(f"{name!r} has no prompt to show (planners with prompts: "
+                                 f"{', '.join(FIRST_PROMPT)})", param_hint="--planner")
+    if agent is not None and not kind.startswith("agent"):
+        raise click.BadParameter(f"the {name} planner's first prompt is the "
+                                 f"{'leader' if kind == 'leader' else 'team'}'s, not an "
+                                 f"agent's", param_hint="--agent")
+    return kind
+
+
+def _task(task: str, source: str) -> TaskConfig:
+    """The config file `task`, or the instance `task` of `source`."""
+    if Path(task).is_file():
+        configs = load_tasks(task)
+        if len(configs) != 1:
+            raise click.BadParameter(f"{task} holds {len(configs)} instances; pass "
+                                     f"--source {task} --task ID", param_hint="--task")
+        return configs[0]
+    configs = load_tasks(source)
+    for config in configs:
+        if config.task_id == task:
+            return config
+    examples = ", ".join(c.task_id for c in configs[:2])
+    raise click.BadParameter(f"no instance {task!r} in {source} (neither a file; ids look "
+                             f"like {examples})", param_hint="--task")
+
+
+def _caption(suite: PromptSuite, config: TaskConfig, planner: str, agent: str | None,
+             obs_mode: str) -> str:
+    who = f"agent={agent}" if agent else "team"
+    images = ""
+    if obs_mode == "image":
+        view = "its own view" if agent else "the agents' views side by side"
+        images = f"; the model also gets {view} as an image"
+    return (f"# step 0 prompt · suite {suite.spec} (hash {suite.content_hash[:12]}) · "
+            f"{config.task_id} · {planner} · {who} · obs={obs_mode}{images}")

@@ -1,0 +1,117 @@
+"""What `cocobench run` records of its options, and how `--resume` restores them.
+
+Every option is recorded in `run.json` (secrets redacted). On `--resume`, an option not given
+on the command line takes its recorded value; one given that changes what is sent to a model
+or how it is scored, and differs from the recorded value, is refused (exit 2, naming it).
+Options that only change how the run goes (jobs, timeouts, spend limits, …) may change.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+from click.core import ParameterSource
+
+from cocobench_agents.models.secrets import REDACTED, redact_named, redact_url
+
+#: Options that change what is sent or scored: a resumed run must keep them.
+SHAPING = frozenset({
+    "tasks", "suite", "eval_set", "only_cell", "only_family", "only_dim", "task_id", "limit",
+    "missing", "planner", "planners", "obs_mode", "conditions", "models", "agent_models",
+    "baselines", "epochs", "prompt_suite", "prompt_suites", "backend", "max_steps",
+    "stable_ids", "api_base", "transport", "temperature", "max_tokens", "grammar", "seed",
+    "extra_json",
+})
+#: What belongs to one invocation only.
+NOT_RECORDED = frozenset({"out", "resume", "retry_errors"})
+#: Options naming files or folders: recorded absolute, so a resume works from anywhere.
+PATHS = frozenset({"tasks", "suite", "cache_dir"})
+
+
+def recorded_options(kw: dict[str, Any]) -> dict[str, Any]:
+    """The options to keep in `run.json`: JSON values, paths absolute, secrets redacted."""
+    out = {}
+    for name, value in kw.items():
+        if name in NOT_RECORDED:
+            continue
+        value = _json(value)
+        if name in PATHS:
+            value = _absolute(value)
+        out[name] = _redacted(name, value)
+    return out
+
+
+def restore_options(kw: dict[str, Any], recorded: dict[str, Any],
+                    ctx: click.Context) -> dict[str, Any]:
+    """`kw` with the recorded values of the options not given now; raise `UsageError` for a
+    given option that would change what is sent or scored."""
+    out = dict(kw)
+    for name, value in recorded.items():
+        if name not in kw:
+            continue  # an option of another version of cocobench
+        given = ctx.get_parameter_source(name) not in (ParameterSource.DEFAULT, None)
+        if not given:
+            if _redacted_value(value):
+                raise click.UsageError(
+                    f"--resume: the recorded {_flag(ctx, name)} carried credentials, which "
+                    f"are never stored: give {_flag(ctx, name)} again")
+            out[name] = _python(kw[name], value)
+            continue
+        now = _redacted(name, _absolute(_json(kw[name])) if name in PATHS else _json(kw[name]))
+        if name in SHAPING and now != value:
+            raise click.UsageError(
+                f"--resume: {_flag(ctx, name)} {_show(now)} differs from the recorded run "
+                f"({_show(value)}); it changes what is sent or scored, so a resumed run keeps "
+                "it: run without it, or into a new --out")
+    return out
+
+
+def _json(value: Any) -> Any:
+    if isinstance(value, (tuple, list)):
+        return [_json(v) for v in value]
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def _python(current: Any, value: Any) -> Any:
+    """A recorded JSON value in the shape click gives (tuples for multiple options)."""
+    return tuple(value) if isinstance(current, tuple) and isinstance(value, list) else value
+
+
+def _absolute(value: Any) -> Any:
+    if isinstance(value, list):
+        return [_absolute(v) for v in value]
+    if isinstance(value, str) and Path(value).exists():
+        return str(Path(value).resolve())
+    return value
+
+
+def _redacted(name: str, value: Any) -> Any:
+    if name == "api_base":
+        return redact_url(value)
+    if name == "extra_json" and value:
+        try:
+            return json.dumps(redact_named(json.loads(value)), sort_keys=True)
+        except ValueError:
+            return value  # not JSON: refused by the option's own check
+    return value
+
+
+def _redacted_value(value: Any) -> bool:
+    return isinstance(value, str) and REDACTED in value
+
+
+def _flag(ctx: click.Context, name: str) -> str:
+    for param in ctx.command.params:
+        if param.name == name and param.opts:
+            return max(param.opts, key=len)
+    return name
+
+
+def _show(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) < 80 else text[:77] + "..."

@@ -1,0 +1,65 @@
+"""The templates a prompt suite consists of, and the `{fields}` each may use.
+
+Every template is a Python format string (`{field}`; `{{` and `}}` for literal braces). The
+renderers (render.py, hints.py) fill exactly these fields, so a suite is checked against this
+table when it loads: a typo in a field name is reported then, not in the middle of a run.
+"""
+
+from __future__ import annotations
+
+import string
+
+# Fields of the prompts that see the whole team (centralized planner, leader).
+_TEAM = frozenset({"n", "agents", "view", "goal", "progress_section", "hint", "menu",
+                   "history_section", "state"})
+
+TEMPLATE_FIELDS: dict[str, frozenset[str]] = {
+    "centralized": _TEAM,
+    "leader": _TEAM | {"reply_format"},
+    "distributed": frozenset({"me", "n", "agents", "view", "goal", "progress_section", "hint",
+                              "comm", "msg_hint", "menu", "history_section", "inv"}),
+    "view_image_centralized": frozenset({"agents"}),
+    "view_blind_centralized": frozenset({"agents"}),
+    "view_image_distributed": frozenset(),
+    "view_blind_distributed": frozenset(),
+    "progress_section": frozenset({"goal_progress"}),
+    "history_section_centralized": frozenset({"history"}),
+    "history_section_distributed": frozenset({"history"}),
+    "state_centralized": frozenset({"agent_lines"}),
+    "comm_block": frozenset({"board"}),
+    "msg_hint": frozenset(),
+    "hint_resource": frozenset(),
+    "hint_relay": frozenset({"buffer", "producer", "consumer", "targets"}),
+}
+
+# Sample values for the trial rendering at load time (`n` is the one number).
+_SAMPLE = {"n": 2}
+
+
+def field_problem(key: str, text: str) -> str | None:
+    """What is wrong with template `key`'s text as a format string, or None."""
+    allowed = TEMPLATE_FIELDS[key]
+    try:
+        used = _field_names(text)
+    except ValueError as exc:
+        return f"{exc} (write {{{{ or }}}} for a literal brace)"
+    unknown = sorted(used - allowed)
+    if unknown:
+        known = ", ".join(sorted(allowed)) or "none"
+        return f"unknown field {{{unknown[0]}}} (fields of this template: {known})"
+    try:  # what parsing accepts but formatting rejects: `{n:q}`, `{goal!z}`
+        text.format(**{name: _SAMPLE.get(name, "x") for name in allowed})
+    except (ValueError, TypeError) as exc:
+        return f"cannot be formatted: {exc}"
+    return None
+
+
+def _field_names(text: str) -> set[str]:
+    """The field names `text` uses, including those nested in format specs."""
+    names: set[str] = set()
+    for _, name, spec, _ in string.Formatter().parse(text):
+        if name is not None:
+            names.add(name)
+        if spec:
+            names |= _field_names(spec)
+    return names

@@ -1,0 +1,87 @@
+"""The ai2thor backend over the contract tests' fake Unity, in Ray workers too.
+
+`install` is a Ray worker setup hook: every worker process of the test's Ray session then
+builds its `ThorController`s (with the process-wide controller pool, as in production) over
+`tests/thor/fake_unity.py`. A test steers failures through a control folder (the variable
+`CONTROL_VARIABLE` names it): ``plan.json`` = ``{"task_id": ..., "mode": ...}`` makes that
+task's Unity die at its first step: ``once`` (a marker file makes it once across processes),
+``always``, or ``exit`` (the whole worker process dies with it, once).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from benchmark_adapter.sim import backends
+from benchmark_adapter.sim.thor import ThorController, ThorOptions
+from benchmark_adapter.sim.thor.pool import POOL, ControllerPool
+from benchmark_adapter.tasks import TaskConfig, load_task
+from tests.paths import SHARED_TASKS
+from tests.thor.fake_unity import META_ACTIONS, SceneLibrary, fake_factory
+
+CONTROL_VARIABLE = "COCOBENCH_TEST_FAKE_UNITY"
+UNITY_EXITED = "Unity exited"
+
+
+class Crash(dict):
+    """A fake server's `fail_on`: when armed, the next episode action kills "Unity"."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.armed: str | None = None
+
+    def __contains__(self, action: object) -> bool:
+        if self.armed is None or action in META_ACTIONS or action == "Initialize":
+            return False
+        if self.armed == "exit":
+            os._exit(1)  # Unity took its worker process down with it
+        return True
+
+    def pop(self, action: Any, *default: Any) -> BaseException:
+        self.armed = None
+        return OSError(UNITY_EXITED)
+
+
+def fake_thor_backend(control: Path, pool: ControllerPool = POOL
+                      ) -> Callable[..., ThorController]:
+    """A `BACKENDS["ai2thor"]` factory: ThorControllers over the fake Unity, in `pool`."""
+    library, crash = SceneLibrary(), Crash()
+    for path in sorted(SHARED_TASKS.glob("*.json")):
+        library.add(load_task(path))  # every scene "in the build" before the first start
+    start = fake_factory(library)
+
+    def factory(options: ThorOptions, scene: str, init: Any) -> Any:
+        controller = start(options, scene, init)
+        controller.server.fail_on = crash
+        return controller
+
+    def make(config: TaskConfig, **options: Any) -> ThorController:
+        crash.armed = _crash_mode(control, config.task_id)
+        return ThorController(config, ThorOptions(**options), factory=factory, pool=pool)
+
+    return make
+
+
+def _crash_mode(control: Path, task_id: str) -> str | None:
+    plan_file = control / "plan.json"
+    if not plan_file.exists():
+        return None
+    plan = json.loads(plan_file.read_text())
+    if plan.get("task_id") != task_id:
+        return None
+    if plan["mode"] == "always":
+        return "crash"
+    try:  # once across every process of the run
+        os.close(os.open(control / f"{task_id}.{plan['mode']}", os.O_CREAT | os.O_EXCL))
+    except FileExistsError:
+        return None
+    return "exit" if plan["mode"] == "exit" else "crash"
+
+
+def install() -> None:
+    """Ray worker setup hook: this process's ai2thor backend is the fake Unity."""
+    backends.BACKENDS["ai2thor"] = fake_thor_backend(Path(os.environ[CONTROL_VARIABLE]))
