@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -82,13 +83,16 @@ def make_clients(spec: EpisodeSpec, pool: ClientFactory) -> dict[str, ModelClien
 
 async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
                       controller: Controller | None = None,
-                      trajectory_path: str | Path | None = None
+                      trajectory_path: str | Path | None = None,
+                      on_step: Callable[[dict[str, Any]], None] | None = None,
                       ) -> tuple[dict[str, Any], EpisodeResult]:
-    """Run one episode to its end; write its trajectory when a path is given."""
+    """Run one episode to its end; write its trajectory when a path is given. `on_step` is
+    called with each landed step's trajectory item."""
     planner = planner_spec(spec.planner)
     episode = Episode(spec.config, controller)
     tools = EpisodeTools(episode, load_prompt_suite(spec.prompt_suite), obs_mode=spec.obs_mode,
                          stable_ids=spec.stable_ids)
+    tools.on_step = on_step
     context = PlannerContext(
         tools=tools, clients=make_clients(spec, pool), budget=spec.budget,
         sample_index=spec.sample_index,

@@ -6,7 +6,11 @@ The live `Episode` and the model clients reach nodes through the runtime context
 
 from __future__ import annotations
 
-from typing import Annotated, Any, TypedDict
+from typing import Annotated, Any
+
+# typing_extensions' TypedDict: on Python < 3.12 pydantic (LangGraph's input JSON schema, as
+# Studio shows it) refuses typing's.
+from typing_extensions import TypedDict
 
 TEAM = "__team__"  # history key of a centralized planner (one history for the whole team)
 

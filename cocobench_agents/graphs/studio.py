@@ -1,10 +1,15 @@
-"""Compiled planner graphs for LangGraph tooling (`langgraph.json`: `langgraph dev`, Studio).
+"""Compiled graphs for LangGraph tooling (`langgraph.json`: `langgraph dev`, Studio).
 
-Each graph expects a `PlannerContext` as its runtime context (see `episode_runner.py` for how a
-run builds one); opened in Studio they show the node structure of every strategy.
+`episode` runs a whole episode from plain input (a task, a model, a planner): the graph to run
+from a LangGraph server or Studio. The planner graphs expect a `PlannerContext` with a live
+episode as their runtime context, which only `episode` (or `cocobench run`) builds; opened in
+Studio they show the node structure of every strategy.
 """
 
+from cocobench_agents.graphs.episode_graph import build_episode_graph
 from cocobench_agents.graphs.registry import compiled_graph
+
+episode = build_episode_graph().compile()
 
 centralized = compiled_graph("centralized")
 decentralized = compiled_graph("decentralized")

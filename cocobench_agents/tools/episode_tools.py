@@ -8,7 +8,7 @@ scored trajectory.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +18,7 @@ from benchmark_adapter.metrics import EpisodeResult, score_trajectory
 from benchmark_adapter.sim.embedded.render import merge_agent_frames
 from benchmark_adapter.skills import SkillResult
 from benchmark_adapter.trajectory import write_json_atomic
+from cocobench_agents.harness.store import PROMPTS_FIELD
 from cocobench_agents.models.protocol import MenuOption
 from cocobench_agents.prompts import (
     PromptInputs,
@@ -27,6 +28,7 @@ from cocobench_agents.prompts import (
     render_distributed,
     render_leader,
 )
+from cocobench_agents.tools.decisions import prompt_hash
 
 COUNTED_PARSE_ERRORS = ("parse_error", "invalid_action_id")
 
@@ -43,10 +45,13 @@ class EpisodeTools:
         self.config = episode.config
         self.hint = coordination_hint(self.config, suite)
         self.decisions: list[dict[str, Any]] = []
+        self.prompts: dict[str, str] = {}  # every prompt rendered, by `prompt_hash`
         self.counters = {"planner_steps": 0, "parse_errors": 0, "backend_errors": 0}
         self._stable: dict[str, int] = {}
         self._views: dict[str | None, _MenuView] = {}
         self.snapshot: Observation | None = None
+        # Called with each landed step's trajectory item (e.g. to stream it to a client).
+        self.on_step: Callable[[dict[str, Any]], None] | None = None
 
     # -- observation -------------------------------------------------------------------
 
@@ -100,13 +105,20 @@ class EpisodeTools:
             text = render_centralized(self.suite, inputs)
         else:
             text = render_distributed(self.suite, inputs, agent, broadcast)
-        return text, self._images(agent) if with_images else (), menu
+        return self._kept(text), self._images(agent) if with_images else (), menu
 
     def leader_prompt(self, history: Sequence[str], with_images: bool = True
                       ) -> tuple[str, tuple[bytes, ...]]:
         """The leader–worker strategy's leader prompt and images (the team view)."""
         inputs = self._inputs(self._menu_view(None), history, ())
-        return render_leader(self.suite, inputs), self._images(None) if with_images else ()
+        text = self._kept(render_leader(self.suite, inputs))
+        return text, self._images(None) if with_images else ()
+
+    def _kept(self, prompt: str) -> str:
+        # Decisions record a prompt by its hash; the text goes with the trajectory (the run
+        # folder stores it compressed), so what a model saw can be read back.
+        self.prompts.setdefault(prompt_hash(prompt), prompt)
+        return prompt
 
     def _inputs(self, view: _MenuView, history: Sequence[str],
                 messages: Sequence[Mapping[str, str]]) -> PromptInputs:
@@ -130,8 +142,11 @@ class EpisodeTools:
     def land(self, call: str, *, decision: dict[str, Any] | None = None,
              round_index: int | None = None, message: str | None = None) -> SkillResult:
         """Execute one chosen call as a recorded step."""
-        return self.episode.step(call, round_index=round_index, message=message,
-                                 decision=decision)
+        result = self.episode.step(call, round_index=round_index, message=message,
+                                   decision=decision)
+        if self.on_step is not None:
+            self.on_step(self.episode.items[-1])
+        return result
 
     def record(self, decision: dict[str, Any], model_call: bool = True) -> dict[str, Any]:
         """Count a decision (cumulative counters, as the reference records them) and keep it."""
@@ -151,9 +166,13 @@ class EpisodeTools:
 
     def finish(self, path: str | Path | None = None, **identifiers: Any
                ) -> tuple[dict[str, Any], EpisodeResult]:
-        """The trajectory (with every decision) and its scored result."""
+        """The trajectory (with every decision, and under `PROMPTS_FIELD` the text of every
+        prompt a decision names by its `prompt_hash`) and its scored result."""
         document = self.episode.finish()
         document["planner_decisions"] = self.decisions
+        used = {d.get("prompt_hash") for d in self.decisions}
+        if used.intersection(self.prompts):
+            document[PROMPTS_FIELD] = {h: p for h, p in self.prompts.items() if h in used}
         if path is not None:
             write_json_atomic(path, document)
         return document, score_trajectory(document, **identifiers)

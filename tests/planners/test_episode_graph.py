@@ -1,0 +1,133 @@
+"""The `episode` graph: a whole episode from plain input, for LangGraph's own tooling; and a
+real `langgraph dev` server running it through `langgraph_sdk`."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from cocobench_agents.graphs.episode_graph import build_episode_graph
+
+ROOT = Path(__file__).resolve().parents[2]
+TASK = {"task": "G_D1__DemoLivingRoom1__seed0", "suite": "demo", "model": "greedy",
+        "budget": 4}
+
+
+def stream(graph, state):
+    async def collect():
+        return [chunk async for chunk in graph.astream(state, stream_mode=["custom", "values"])]
+
+    return asyncio.run(collect())
+
+
+def test_the_input_schema_is_a_form_studio_can_show():
+    schema = build_episode_graph().compile().get_input_jsonschema()
+    assert schema["required"] == ["task"]
+    assert {"task", "model", "planner", "obs_mode", "budget", "backend"} <= set(
+        schema["properties"])
+    assert schema["properties"]["obs_mode"]["enum"] == ["image", "blind"]
+
+
+def test_an_episode_streams_each_landed_step_and_returns_its_score():
+    chunks = stream(build_episode_graph().compile(), TASK)
+    steps = [c for mode, c in chunks if mode == "custom"]
+    final = next(c for mode, c in reversed(chunks) if mode == "values")
+    assert [s["step"] for s in steps] == [1, 2, 3, 4]
+    assert steps[0]["call"].startswith("PickUp(agent_1,")
+    result = final["result"]
+    assert result["task_id"] == TASK["task"] and result["num_steps"] == 4
+    assert result["terminal_reason"] == "max_steps" and result["model"] == "greedy"
+    assert [s["call"] for s in final["trajectory"]["steps"]] == [s["call"] for s in steps]
+
+
+def test_the_oracle_planner_solves_its_instance():
+    state = {**TASK, "planner": "oracle"}
+    state.pop("budget")
+    final = stream(build_episode_graph().compile(), state)[-1][1]
+    assert final["result"]["task_success"] == 1
+
+
+def test_an_unknown_task_names_itself():
+    with pytest.raises(ValueError, match="unknown task 'nope'"):
+        stream(build_episode_graph().compile(), {"task": "nope", "suite": "demo"})
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def langgraph_server(tmp_path_factory):
+    """`langgraph dev` on 127.0.0.1, serving a copy of this repository's langgraph.json (the
+    server writes its state beside the config: in a temporary copy, not the checkout)."""
+    if shutil.which("langgraph") is None:
+        pytest.skip("langgraph-cli[inmem] is not installed (CI installs it)")
+    pytest.importorskip("langgraph_sdk")
+    work = tmp_path_factory.mktemp("langgraph")
+    config = json.loads((ROOT / "langgraph.json").read_text())
+    config["dependencies"] = [str(ROOT)]
+    config["graphs"] = {"episode": str(ROOT / "cocobench_agents/graphs/studio.py") + ":episode"}
+    (work / "langgraph.json").write_text(json.dumps(config))
+    port = _free_port()
+    env = {**os.environ, "LANGGRAPH_CLI_NO_ANALYTICS": "1", "LANGSMITH_TRACING": "false"}
+    log = (work / "server.log").open("w")
+    server = subprocess.Popen(
+        ["langgraph", "dev", "--no-browser", "--host", "127.0.0.1", "--port", str(port),
+         "--config", str(work / "langgraph.json"), "--no-reload"],
+        cwd=work, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=1):
+                break
+        except OSError:
+            if server.poll() is not None:
+                pytest.fail(f"langgraph dev exited: {(work / 'server.log').read_text()[-2000:]}")
+            time.sleep(0.5)
+    yield url
+    os.killpg(server.pid, signal.SIGTERM)
+    try:
+        server.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        os.killpg(server.pid, signal.SIGKILL)
+    log.close()
+
+
+@pytest.mark.slow
+def test_langgraph_dev_runs_an_episode_through_the_sdk(langgraph_server):
+    from langgraph_sdk import get_client
+
+    async def run():
+        client = get_client(url=langgraph_server)
+        for _ in range(60):  # the server answers before it has loaded the graphs
+            assistants = await client.assistants.search(graph_id="episode")
+            if assistants:
+                break
+            await asyncio.sleep(1)
+        thread = await client.threads.create()
+        final = await client.runs.wait(thread["thread_id"], "episode", input=TASK)
+        events = [part async for part in client.runs.stream(
+            None, "episode", input={**TASK, "planner": "oracle", "budget": 20},
+            stream_mode=["custom", "values"])]
+        return final, events
+
+    final, events = asyncio.run(run())
+    assert final["result"]["task_id"] == TASK["task"]
+    assert final["result"]["num_steps"] == 4
+    steps = [e.data for e in events if e.event == "custom"]
+    assert steps and all("call" in s for s in steps)
+    last = [e.data for e in events if e.event == "values"][-1]
+    assert last["result"]["task_success"] == 1
