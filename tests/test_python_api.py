@@ -23,7 +23,7 @@ def test_the_documented_example_runs(tmp_path, monkeypatch):
     assert len(blocks) >= 3
     namespace: dict = {}
     for block in blocks:
-        exec(compile(block, str(DOC), "exec"), namespace)  # noqa: S102 - our own doc
+        exec(compile(block, str(DOC), "exec"), namespace)  # our own doc
     assert len(namespace["results"]) == 8
     assert (tmp_path / "runs" / "api-demo" / "report").is_dir()
 
