@@ -98,7 +98,7 @@ class ThorCompatController:
         self.last_action = payload
         name, agent = payload.get("action"), payload.get("agentId")
         arguments = {k: v for k, v in payload.items() if k not in ("action", "agentId")}
-        metadata = sim.step(name, agentId=agent, **arguments)  # type: ignore[arg-type]
+        metadata = sim.step(name, agentId=agent, **arguments)
         active = 0 if agent is None else int(agent)
         code = _error_code(name, metadata[active]["errorMessage"])
         self.last_event = self._event(metadata, active, {}, {active: code})
@@ -129,18 +129,16 @@ class ThorCompatController:
         return self._sim
 
     def _initialize(self, params: dict[str, Any]) -> None:
-        """Check and record initialization parameters, as ai2thor's `reset` merges them."""
+        """Check, then record, initialization parameters (ai2thor's `reset` merges them)."""
         params = dict(params)
-        self.width = int(params.pop("width", self.width))
-        self.height = int(params.pop("height", self.height))
+        size = int(params.pop("width", self.width)), int(params.pop("height", self.height))
+        render = bool(params.pop("renderImage", self.initialization_parameters["renderImage"]))
         for name, value in params.items():
             if name in LAUNCH_OPTIONS:
                 continue
             if name in UNRENDERED:
                 if value:
                     raise ValueError(f"{name}: the embedded world renders RGB frames only")
-            elif name == "renderImage":
-                self.initialization_parameters[name] = bool(value)
             elif name in self.initialization_parameters:
                 fixed = self.initialization_parameters[name]
                 if value != fixed:
@@ -152,21 +150,20 @@ class ThorCompatController:
                 raise ValueError(
                     f"unsupported initialization parameter {name!r} for ThorCompatController"
                 )
+        self.width, self.height = size
+        self.initialization_parameters["renderImage"] = render
 
     def _event(self, metadata: Sequence[Mapping[str, Any]], active: int,
                overrides: Mapping[str, Any],
                codes: Mapping[int, str] | None = None) -> Event | MultiAgentEvent:
         w, h = self.width, self.height
         base = {**UNITY_KEYS, "screenWidth": w, "screenHeight": h, **overrides}
-        render = None
+        params = self.initialization_parameters
         events = []
         for i, md in enumerate(metadata):
             extra = {**base, "errorCode": (codes or {}).get(i, "")}
-            if self.initialization_parameters["renderImage"]:
-                render = functools.partial(
-                    render_frame, metadata, i,
-                    self.initialization_parameters["visibilityDistance"], w, h,
-                )
+            render = (functools.partial(render_frame, metadata, i, params["visibilityDistance"],
+                                        w, h) if params["renderImage"] else None)
             events.append(Event(functools.partial(plain_copy, md, extra), render, w, h))
         return events[0] if len(events) == 1 else MultiAgentEvent(active, events)
 

@@ -18,7 +18,6 @@ from typing import Any
 
 import orjson
 
-from benchmark_adapter.sim.embedded.render import render_agent_frame
 from benchmark_adapter.sim.embedded.world import AGENT_Y
 
 FIELD_OF_VIEW = 90
@@ -126,8 +125,11 @@ def plain_copy(metadata: Mapping[str, Any], extra: Mapping[str, Any]) -> dict[st
 def render_frame(metadata: Sequence[Mapping[str, Any]], agent: int, visibility_distance: float,
                  width: int, height: int) -> Any:
     """Agent `agent`'s frame as an RGB array, drawn from the metadata snapshot `metadata`."""
+    # Imported on first use: most clients never read a frame.
     import numpy
     from PIL import Image
+
+    from benchmark_adapter.sim.embedded.render import render_agent_frame
 
     own = metadata[agent]
     view = {
