@@ -11,10 +11,12 @@ from typing import Any
 import click
 
 from benchmark_adapter.sim.backends import check_backend
-from benchmark_adapter.tasks import load_tasks, select_tasks
+from benchmark_adapter.tasks import select_tasks
 from cocobench_agents.cli.resume import recorded_options, restore_options
 from cocobench_agents.cli.run_options import (
     backend_option,
+    load_source,
+    missing_option,
     model_options,
     model_settings,
     selection_options,
@@ -22,6 +24,7 @@ from cocobench_agents.cli.run_options import (
 from cocobench_agents.cli.run_ray import check_executor_options, executor_options, run_on_ray
 from cocobench_agents.cli.tables import table
 from cocobench_agents.graphs import planner_spec
+from cocobench_agents.graphs.plugins import check_unchanged as check_planners_unchanged
 from cocobench_agents.harness import (
     Condition,
     Progress,
@@ -38,6 +41,8 @@ from cocobench_agents.harness import (
 )
 from cocobench_agents.harness.infra import count_infra_failures, retry_command
 from cocobench_agents.harness.limits import SpendLimit
+from cocobench_agents.harness.planner_check import check_planners
+from cocobench_agents.harness.store import RunFolderWriteError
 from cocobench_agents.harness.summary import HEADERS, latest, summary_rows
 from cocobench_agents.models import ModelPool
 from cocobench_agents.prompts import DEFAULT_SUITE, check_unchanged, load_prompt_suite
@@ -57,7 +62,9 @@ LEGEND = (
 @click.option("--suite", metavar="SUITE|PATH",
               help=f"A suite name or path (default: {DEFAULT_TASKS}).")
 @click.option("--planner", default="centralized", show_default=True,
-              help="centralized, decentralized, decentralized-broadcast, leader-worker, oracle.")
+              metavar="NAME|FILE.py:NAME|module:NAME",
+              help="centralized, decentralized, decentralized-broadcast, leader-worker, "
+                   "oracle, an installed planner (`cocobench planners`) or your own.")
 @click.option("--obs", "obs_mode", type=click.Choice(["image", "blind"]), default="image",
               show_default=True, help="Observation mode (with --planner).")
 @click.option("--conditions", metavar="LIST",
@@ -106,16 +113,18 @@ LEGEND = (
 @click.option("--stable-ids", is_flag=True,
               help="Menu ids that never shift within an episode (deviation from the reference).")
 @selection_options
+@missing_option
 @model_options
 def run_command(**kw: Any) -> None:
     """Run planners on CoCoBench instances and record one trajectory and one result per
     episode. Every model × condition × instance × epoch is one episode."""
     folder = RunFolder(kw["out"])
-    record = folder.open_for_resume() if kw["resume"] else None
+    record = _open_folder(folder, kw["resume"])
     if record is not None and "cli_options" in record:
         kw = restore_options(kw, record["cli_options"], click.get_current_context())
-    check_backend(kw["backend"])
     check_executor_options(kw)
+    if kw["executor"] == "local":  # Ray workers check the node they run on
+        check_backend(kw["backend"])
     request = _request(kw, record)
     pool = ModelPool(model_settings(kw))
     episodes = plan_episodes(request["tasks"], request["models"], request["conditions"],
@@ -124,6 +133,7 @@ def run_command(**kw: Any) -> None:
         episodes, folder, retry_errors=kw["retry_errors"])
     if todo:  # a finished run is only summarised: no model stack to load, no key to need
         _check_models(pool, request["models"], request["agent_models"])
+        check_planners(c.planner for c in request["conditions"])  # the user's, by one episode
         if not kw["no_preflight"]:
             from cocobench_agents.models.preflight import preflight
 
@@ -132,7 +142,9 @@ def run_command(**kw: Any) -> None:
                        if planner_spec(c.planner).uses_models})
     if record is None:
         folder.create({**run_record(kw["out"], request, pool.settings, sys.argv),
-                       "cli_options": recorded_options(kw)})
+                       # the suite as its canonical spec: a folder's absolute path
+                       "cli_options": recorded_options(
+                           {**kw, "prompt_suite": request["options"].prompt_suite})})
     click.echo(f"{len(episodes)} episodes ({len(episodes) - len(todo)} already done) "
                f"→ {folder.path}", err=True)
     stopped_early = None
@@ -162,7 +174,7 @@ def _execute(todo: list, folder: RunFolder, pool: ModelPool, kw: dict[str, Any],
     workers = kw["workers"] or available_cores()
     try:
         if kw["executor"] == "ray":
-            run_on_ray(kw, todo, folder, pool.settings, on_result)
+            run_on_ray(kw, todo, folder, pool.settings, on_result, **options)
         elif workers > 1:
             execute_in_workers(todo, folder, pool.settings, jobs=kw["jobs"], workers=workers,
                                on_result=on_result, **options)
@@ -171,6 +183,8 @@ def _execute(todo: list, folder: RunFolder, pool: ModelPool, kw: dict[str, Any],
                                           on_result=on_result, **options))
     except WorkerError as exc:
         return click.ClickException(str(exc))
+    except RunFolderWriteError as exc:
+        return RunFolderFailed(folder, exc)
     except KeyboardInterrupt:
         return RunInterrupted(folder, progress.done, total)
     finally:
@@ -204,6 +218,28 @@ class RunHadErrors(click.ClickException):
             f"failures above; retry them with: {retry_command(folder.path)}")
 
 
+def _open_folder(folder: RunFolder, resume: bool) -> dict[str, Any] | None:
+    """Lock the run folder for this command's lifetime; the recorded run when resuming
+    (with a warning for each repair or problem found in it)."""
+    lock = click.get_current_context().with_resource(folder.lock())
+    if lock.stale_pid:
+        click.echo(f"warning: {folder.path}: taking over the lock of pid {lock.stale_pid}, "
+                   "which ended without releasing it", err=True)
+    record = folder.open_for_resume() if resume else None
+    for warning in folder.warnings:
+        click.echo(f"warning: {warning}", err=True)
+    return record
+
+
+class RunFolderFailed(click.ClickException):
+    """The run folder could not be written (a full disk, an I/O error): the run stops."""
+
+    def __init__(self, folder: RunFolder, error: RunFolderWriteError) -> None:
+        super().__init__(f"the run stopped: {error}. What it recorded is kept and valid; "
+                         "make room (or fix the folder) and finish the run with: cocobench "
+                         f"run --out {shlex.quote(str(folder.path))} --resume")
+
+
 class RunInterrupted(click.ClickException):
     """Ctrl-C during a run: what finished is kept; say how to finish the rest."""
 
@@ -230,7 +266,7 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
         raise click.UsageError("--model is required (e.g. --model greedy, or a LiteLLM model)")
     prompt_suite = load_prompt_suite(kw["prompt_suite"])
     sources = list(kw["tasks"]) or [kw["suite"] or DEFAULT_TASKS]
-    tasks = [t for source in sources for t in load_tasks(source)]
+    tasks = [t for source in sources for t in load_source(source, kw["missing"])]
     tasks = select_tasks(tasks, kw["eval_set"], only_cell=kw["only_cell"],
                          only_family=kw["only_family"], only_dim=kw["only_dim"],
                          task_ids=kw["task_id"], limit=kw["limit"] or 0)
@@ -244,6 +280,7 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
                               agent_models=agent_models),
     }
     if record is not None:
+        check_planners_unchanged([c.planner for c in conditions], record.get("planners") or {})
         _same_as_recorded(request, record)
         check_unchanged(prompt_suite, record.get("prompt_suite") or {})
     return request

@@ -53,17 +53,21 @@ def check_executor_options(kw: dict[str, Any]) -> None:
                 flag = "--" + name.replace("_", "-")
                 raise click.UsageError(f"{flag} needs --executor ray")
         return
-    from cocobench_agents.harness.ray_session import RayUnavailable, require_ray
+    from cocobench_agents.harness.ray_session import RayUnavailable, check_reachable, require_ray
 
     try:
         require_ray()
+        if kw["ray_address"]:
+            check_reachable(kw["ray_address"])
     except RayUnavailable as exc:
         raise RayUsageError(str(exc)) from None
 
 
 def run_on_ray(kw: dict[str, Any], episodes: Sequence[PlannedEpisode], folder: RunFolder,
-               settings: ModelSettings, on_result: ResultCallback) -> None:
-    """Run `episodes` with the Ray executor as the options ask."""
+               settings: ModelSettings, on_result: ResultCallback,
+               **run_options: Any) -> None:
+    """Run `episodes` with the Ray executor as the options ask (`run_options`: the spend
+    limit and the episode timeout, as for the local executor)."""
     from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
     from cocobench_agents.harness.ray_local import LocalRayError
     from cocobench_agents.harness.ray_session import RayUnavailable
@@ -74,7 +78,7 @@ def run_on_ray(kw: dict[str, Any], episodes: Sequence[PlannedEpisode], folder: R
     where = kw["ray_address"] or "a local Ray"
     try:
         execute_on_ray(episodes, folder, settings, jobs=kw["jobs"], options=options,
-                       on_result=on_result,
+                       on_result=on_result, **run_options,
                        on_start=lambda shape: click.echo(f"{shape.describe()} on {where}",
                                                          err=True))
     except RayUnavailable as exc:

@@ -13,14 +13,16 @@ Importing this module does not import Ray.
 
 from __future__ import annotations
 
+import contextlib
 import time
 import uuid
 from collections import Counter, deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from cocobench_agents.harness.batch import ResultCallback, infra_error_record, longest_first
+from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import limiter_actor
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
@@ -95,9 +97,13 @@ def fleet_shape(resources: Mapping[str, float], *, backend: str, jobs: int, work
 def execute_on_ray(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                    settings: ModelSettings, *, jobs: int, options: RayOptions = RayOptions(),
                    on_result: ResultCallback | None = None,
-                   on_start: Any = None) -> None:
+                   on_start: Callable[[FleetShape], None] | None = None,
+                   limit: SpendLimit | None = None,
+                   episode_timeout_s: float | None = None) -> None:
     """Run every episode on Ray, appending each result as it arrives, then `on_result`;
-    `on_start(shape)` is told the fleet before the first episode."""
+    `on_start(shape)` is told the fleet before the first episode. Once `limit` is reached no
+    further episode is dispatched; an episode running past `episode_timeout_s` ends as an
+    infrastructure error (as in a local run)."""
     if not episodes:
         return
     local_cpus = options.local_cpus or max(available_cores(), options.workers)
@@ -105,13 +111,14 @@ def execute_on_ray(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                      runtime_env=options.runtime_env):
         import ray
 
-        shape = fleet_shape(ray.cluster_resources(), backend=episodes[0].spec.backend,
+        backend = episodes[0].spec.backend
+        shape = fleet_shape(ray.cluster_resources(), backend=backend,
                             jobs=jobs, workers=options.workers,
                             thor_gpus_per_worker=options.thor_gpus_per_worker,
                             episodes=len(episodes))
         if on_start is not None:
             on_start(shape)
-        run = _Run(folder, settings, shape, on_result)
+        run = _Run(folder, settings, shape, backend, on_result, limit, episode_timeout_s)
         try:
             run.start()
             run.dispatch(longest_first(episodes))
@@ -146,10 +153,14 @@ class _Run:
     """The driver's side of a Ray run: the fleet, the queue, the single writer."""
 
     def __init__(self, folder: RunFolder, settings: ModelSettings, shape: FleetShape,
-                 on_result: ResultCallback | None) -> None:
+                 backend: str, on_result: ResultCallback | None,
+                 limit: SpendLimit | None = None, episode_timeout_s: float | None = None
+                 ) -> None:
         import ray
 
+        self.limit, self.episode_timeout_s = limit, episode_timeout_s
         self.ray, self.folder, self.settings, self.shape = ray, folder, settings, shape
+        self.backend = backend
         self.on_result = on_result
         self.slots = [_Slot(i, c) for i, c in enumerate(shape.capacities)]
         self.in_flight: dict[Any, _InFlight] = {}
@@ -167,13 +178,14 @@ class _Run:
         try:
             self.ray.get([slot.actor.ready.remote() for slot in self.slots])
         except self.ray.exceptions.RayError as exc:
-            raise WorkerError(f"Ray workers could not start: {_gist(exc)}") from None
+            # The last line of a failed start is the error its __init__ raised.
+            raise WorkerError(f"Ray workers could not start: {_gist(exc, last=True)}") from None
 
     def _new_actor(self, slot: _Slot) -> Any:
         worker = self.ray.remote(EpisodeWorker).options(
             name=None, num_cpus=self.shape.num_cpus, num_gpus=self.shape.num_gpus,
             max_concurrency=slot.capacity + 1)  # one more for close()
-        return worker.remote(self.settings, self.limiter, slot.holder)
+        return worker.remote(self.settings, self.limiter, slot.holder, self.backend)
 
     def _replace(self, slot: _Slot, *, graceful: bool) -> None:
         old = slot.actor
@@ -186,11 +198,14 @@ class _Run:
 
     def stop(self) -> None:
         """Cancel what is in flight; let workers stop their Unity, then end them."""
-        for ref in self.in_flight:
-            self.ray.cancel(ref)
-        self._close([slot.actor for slot in self.slots if slot.actor is not None])
-        if self.limiter is not None:
-            self.ray.kill(self.limiter)
+        # On the way out (maybe after Ctrl-C, maybe with the cluster gone): do what can be
+        # done, never hide the reason for leaving.
+        with contextlib.suppress(self.ray.exceptions.RayError):
+            for ref in self.in_flight:
+                self.ray.cancel(ref)
+            self._close([slot.actor for slot in self.slots if slot.actor is not None])
+            if self.limiter is not None:
+                self.ray.kill(self.limiter)
 
     def _close(self, actors: list[Any]) -> None:
         closing = [actor.close.remote() for actor in actors]
@@ -204,10 +219,13 @@ class _Run:
         """Keep every worker at its capacity until every episode has a result line."""
         queue = deque(episodes)
         while queue or self.in_flight:
+            if self.limit is not None and self.limit.reached():
+                queue.clear()  # left pending: --resume with a higher limit runs them
             for slot in self.slots:
                 while queue and slot.busy < slot.capacity:
                     planned = queue.popleft()
-                    self.in_flight[slot.actor.run.remote(planned)] = _InFlight(
+                    call = slot.actor.run.remote(planned, self.episode_timeout_s)
+                    self.in_flight[call] = _InFlight(
                         planned, slot, slot.generation)
                     slot.busy += 1
             ready, _ = self.ray.wait(list(self.in_flight), num_returns=1, timeout=WAIT_S)
@@ -245,25 +263,23 @@ class _Run:
         return True
 
     def _error(self, job: _InFlight, error: str) -> dict[str, Any]:
-        return infra_error_record(job.planned, redact(error), time.perf_counter() - job.started)
+        return infra_error_record(job.planned, redact(error, self.settings.secrets()),
+                                  time.perf_counter() - job.started)
 
     # -- the single writer ------------------------------------------------------------------
 
     def _record(self, planned: PlannedEpisode, document: dict[str, Any] | None,
                 record: dict[str, Any]) -> None:
-        """As a local run records an episode: the trajectory, then its result line."""
+        """As a local run records an episode: the trajectory, then its result line (a folder
+        that cannot be written stops the run, as in `run_one`)."""
         if document is not None:
-            try:
-                record["trajectory"] = self.folder.write_trajectory(planned.key, document)
-            except Exception as exc:  # noqa: BLE001 - as run_one: one episode's failure
-                record = infra_error_record(planned, redact(repr(exc)),
-                                            float(record.get("elapsed_s") or 0))
+            record["trajectory"] = self.folder.write_trajectory(planned.key, document)
         self.folder.append_result(record)
         if self.on_result is not None:
             self.on_result(record)
 
 
-def _gist(exc: BaseException) -> str:
-    """The first line of a Ray error (they carry whole remote tracebacks)."""
-    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-    return f"{type(exc).__name__}: {lines[0] if lines else ''}"[:300]
+def _gist(exc: BaseException, *, last: bool = False) -> str:
+    """The first (or last) line of a Ray error (they carry whole remote tracebacks)."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()] or [""]
+    return f"{type(exc).__name__}: {lines[-1] if last else lines[0]}"[:600]

@@ -26,7 +26,11 @@ class RayUnavailable(ValueError):
 
 def require_ray() -> None:
     """Raise `RayUnavailable` with the install command unless Ray can be imported."""
-    if importlib.util.find_spec("ray") is None:
+    try:
+        found = importlib.util.find_spec("ray") is not None
+    except ValueError:  # sys.modules["ray"] is None: imports of it are blocked
+        found = False
+    if not found:
         raise RayUnavailable(f"--executor ray needs Ray: {INSTALL}")
 
 
@@ -37,8 +41,14 @@ def ray_session(address: str | None = None, *, local_cpus: int = 2,
     """The driver connected to the Ray cluster at `address` (``HOST:PORT`` of its head, or
     ``auto``), or to a private local Ray with `local_cpus` CPUs and `local_gpus` GPUs (None:
     those Ray detects) started for this block; disconnected (and the local Ray stopped with
-    every process it started) when the block is left."""
+    every process it started) when the block is left. A driver already connected (the
+    caller ran `ray.init`) is used as it is."""
     require_ray()
+    import ray
+
+    if ray.is_initialized():
+        yield
+        return
     with contextlib.ExitStack() as stack:
         if address is None:
             local = stack.enter_context(local_ray(local_cpus, local_gpus))
@@ -46,8 +56,6 @@ def ray_session(address: str | None = None, *, local_cpus: int = 2,
             address = local.address
         else:
             check_reachable(address)
-        import ray
-
         _reload_ray_config()
         ray.init(address=address, runtime_env=runtime_env, log_to_driver=False,
                  logging_level=logging.ERROR)

@@ -13,6 +13,7 @@ import socket
 import sys
 from typing import Any
 
+from benchmark_adapter.sim.backends import check_backend
 from cocobench_agents.harness.batch import run_one
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
@@ -37,19 +38,28 @@ class CapturedTrajectory:
 class EpisodeWorker:
     """Runs episodes for the driver (an async Ray actor's body)."""
 
-    def __init__(self, settings: ModelSettings, limiter: Any, holder: str) -> None:
+    def __init__(self, settings: ModelSettings, limiter: Any, holder: str,
+                 backend: str) -> None:
         self.pool = LimitedPool(ModelPool(settings), limiter, holder)
-        _use_assigned_gpu()
+        if backend != "embedded":
+            _use_assigned_gpu()
+            try:
+                check_backend(backend)  # this node's renderer and build, before any episode
+            except Exception as exc:  # noqa: BLE001 - Ray cannot carry our exception types
+                detail = " ".join(str(exc).split())  # one line: the driver shows the last
+                raise RuntimeError(f"{type(exc).__name__}: {detail}") from None
 
     def ready(self) -> str:
         """Where this worker runs (answered once it has started)."""
         return f"{socket.gethostname()} pid {os.getpid()}"
 
-    async def run(self, planned: PlannedEpisode) -> tuple[dict[str, Any] | None, dict[str, Any]]:
-        """One episode → (its trajectory document, or None if it failed to run; its result
-        line)."""
+    async def run(self, planned: PlannedEpisode, timeout_s: float | None = None
+                  ) -> tuple[dict[str, Any] | None, dict[str, Any]]:
+        """One episode (ended as an infrastructure error after `timeout_s`) → (its trajectory
+        document, or None if it failed to run; its result line)."""
         captured = CapturedTrajectory()
-        record = await run_one(planned, captured, self.pool)  # type: ignore[arg-type]
+        record = await run_one(planned, captured, self.pool,  # type: ignore[arg-type]
+                               timeout_s=timeout_s)
         return (None if record.get("infra_error") else captured.document), record
 
     async def close(self) -> None:

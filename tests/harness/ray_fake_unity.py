@@ -2,10 +2,11 @@
 
 `install` is a Ray worker setup hook: every worker process of the test's Ray session then
 builds its `ThorController`s (with the process-wide controller pool, as in production) over
-`tests/thor/fake_unity.py`. A test steers failures through a control folder (the variable
-`CONTROL_VARIABLE` names it): ``plan.json`` = ``{"task_id": ..., "mode": ...}`` makes that
-task's Unity die at its first step: ``once`` (a marker file makes it once across processes),
-``always``, or ``exit`` (the whole worker process dies with it, once).
+`tests/thor/fake_unity.py`. A test steers it through a control folder (the variable
+`CONTROL_VARIABLE` names it): ``tasks.json`` lists the task config files whose scenes are "in
+the build"; ``plan.json`` = ``{task_id: mode}`` makes a task's Unity die at its first step:
+``once`` (a marker file makes it once across processes), ``always``, or ``exit`` (the whole
+worker process dies with it, once).
 """
 
 from __future__ import annotations
@@ -17,14 +18,16 @@ from pathlib import Path
 from typing import Any
 
 from benchmark_adapter.sim import backends
-from benchmark_adapter.sim.thor import ThorController, ThorOptions
+from benchmark_adapter.sim.thor import ThorController, ThorOptions, environment
+from benchmark_adapter.sim.thor.environment import Renderers
 from benchmark_adapter.sim.thor.pool import POOL, ControllerPool
 from benchmark_adapter.tasks import TaskConfig, load_task
-from tests.paths import SHARED_TASKS
 from tests.thor.fake_unity import META_ACTIONS, SceneLibrary, fake_factory
 
 CONTROL_VARIABLE = "COCOBENCH_TEST_FAKE_UNITY"
 UNITY_EXITED = "Unity exited"
+VULKAN = Renderers("Linux", "libvulkan.so.1", "/usr/bin/vulkaninfo", "/usr/bin/nvidia-smi", None)
+NO_RENDERER = Renderers("Linux", None, None, None, None)
 
 
 class Crash(dict):
@@ -49,13 +52,16 @@ class Crash(dict):
 def fake_thor_backend(control: Path, pool: ControllerPool = POOL
                       ) -> Callable[..., ThorController]:
     """A `BACKENDS["ai2thor"]` factory: ThorControllers over the fake Unity, in `pool`."""
-    library, crash = SceneLibrary(), Crash()
-    for path in sorted(SHARED_TASKS.glob("*.json")):
-        library.add(load_task(path))  # every scene "in the build" before the first start
-    start = fake_factory(library)
+    crash = Crash()
+    start: list[Callable[..., Any]] = []  # the fake Unity, made on first use
 
     def factory(options: ThorOptions, scene: str, init: Any) -> Any:
-        controller = start(options, scene, init)
+        if not start:
+            library = SceneLibrary()
+            for path in json.loads((control / "tasks.json").read_text()):
+                library.add(load_task(path))  # every scene "in the build" before a start
+            start.append(fake_factory(library))
+        controller = start[0](options, scene, init)
         controller.server.fail_on = crash
         return controller
 
@@ -68,20 +74,20 @@ def fake_thor_backend(control: Path, pool: ControllerPool = POOL
 
 def _crash_mode(control: Path, task_id: str) -> str | None:
     plan_file = control / "plan.json"
-    if not plan_file.exists():
-        return None
-    plan = json.loads(plan_file.read_text())
-    if plan.get("task_id") != task_id:
-        return None
-    if plan["mode"] == "always":
-        return "crash"
+    mode = json.loads(plan_file.read_text()).get(task_id) if plan_file.exists() else None
+    if mode in (None, "always"):
+        return mode and "crash"
     try:  # once across every process of the run
-        os.close(os.open(control / f"{task_id}.{plan['mode']}", os.O_CREAT | os.O_EXCL))
+        os.close(os.open(control / f"{task_id}.{mode}", os.O_CREAT | os.O_EXCL))
     except FileExistsError:
         return None
-    return "exit" if plan["mode"] == "exit" else "crash"
+    return "exit" if mode == "exit" else "crash"
 
 
 def install() -> None:
-    """Ray worker setup hook: this process's ai2thor backend is the fake Unity."""
-    backends.BACKENDS["ai2thor"] = fake_thor_backend(Path(os.environ[CONTROL_VARIABLE]))
+    """Ray worker setup hook: this process's ai2thor backend is the fake Unity, and its
+    renderer probe finds Vulkan unless ``no-renderer`` is in the control folder."""
+    control = Path(os.environ[CONTROL_VARIABLE])
+    backends.BACKENDS["ai2thor"] = fake_thor_backend(control)
+    environment.probe = lambda x_display=None: (
+        NO_RENDERER if (control / "no-renderer").exists() else VULKAN)

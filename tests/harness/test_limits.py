@@ -27,11 +27,17 @@ def server():
         yield fake
 
 
-@pytest.mark.parametrize("workers", ["1", "2"])
+EXECUTORS = [["--workers", "1"], ["--workers", "2"],
+             pytest.param(["--executor", "ray", "--workers", "1"], marks=pytest.mark.slow)]
+
+
+@pytest.mark.parametrize("executor", EXECUTORS, ids=["local", "workers", "ray"])
 def test_a_token_limit_stops_new_episodes_and_resume_completes(tmp_path, capsys, server,
-                                                               workers):
+                                                               executor):
+    if "ray" in executor:
+        pytest.importorskip("ray", reason="the ray extra is not installed (CI installs it)")
     out = tmp_path / "run"
-    argv = [*RUN, "--api-base", server.base_url, "--workers", workers, "--out", str(out)]
+    argv = [*RUN, "--api-base", server.base_url, *executor, "--out", str(out)]
     assert main([*argv, "--max-total-tokens", "40"]) == 3
     err = capsys.readouterr().err
     assert "spend limit reached" in err and "--resume --max-total-tokens" in err
@@ -54,11 +60,16 @@ def test_a_cost_limit_counts_what_the_folder_already_spent(tmp_path, capsys):
     assert "$5.0000 of --max-cost 1" in capsys.readouterr().err
 
 
-def test_a_runaway_episode_ends_as_an_infrastructure_error(tmp_path, server):
+@pytest.mark.parametrize("executor", [[], pytest.param(["--executor", "ray"],
+                                                     marks=pytest.mark.slow)],
+                         ids=["local", "ray"])
+def test_a_runaway_episode_ends_as_an_infrastructure_error(tmp_path, server, executor):
+    if executor:
+        pytest.importorskip("ray", reason="the ray extra is not installed (CI installs it)")
     server.program(default=ok("REASON: slow\nACTION: 1", delay_s=1.0))
     out = tmp_path / "run"
     code = main([*RUN, "--limit", "1", "--max-steps", "20", "--api-base", server.base_url,
-                 "--episode-timeout", "0.5", "--out", str(out)])
+                 "--episode-timeout", "0.5", *executor, "--out", str(out)])
     (record,) = results(out)
     assert "timed out after 0.5 s" in record["infra_error"]
     assert record["task_success"] == 0

@@ -1,0 +1,326 @@
+"""The Ray executor on a real local Ray (2 CPUs, 1 logical GPU), shared by this module: a Ray
+run equals a local run episode for episode; the limit on model calls holds across workers;
+AI2-THOR workers (over the fake Unity) equal a local run, and a Unity or a worker that dies
+costs one re-run, not the episode."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import threading
+import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("ray", reason="the ray extra is not installed: pip install '.[ray]'")
+
+from benchmark_adapter.sim import backends
+from benchmark_adapter.sim.thor.pool import ControllerPool
+from benchmark_adapter.tasks import load_task, load_tasks
+from cocobench_agents.harness import (
+    Condition,
+    RunFolder,
+    RunOptions,
+    WorkerError,
+    execute_and_close,
+    plan_episodes,
+)
+from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray, fleet_shape
+from cocobench_agents.harness.ray_limit import ConcurrencyLimiter
+from cocobench_agents.harness.ray_local import children_of
+from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
+from cocobench_agents.models import ModelPool, ModelSettings
+from tests.harness.ray_fake_unity import CONTROL_VARIABLE, fake_thor_backend
+from tests.paths import SHARED_TASKS
+
+ROOT = Path(__file__).resolve().parents[2]
+THOR_TASKS = sorted(SHARED_TASKS.glob("*.json"))[:4]
+needs_thor = pytest.mark.skipif(
+    not THOR_TASKS or not __import__("importlib").util.find_spec("ai2thor"),
+    reason="needs ai2thor (the thor extra) and the shared CoCoBench task configs")
+
+
+@pytest.fixture(scope="module")
+def control(tmp_path_factory) -> Path:
+    """The fake Unity's control folder (see tests/harness/ray_fake_unity.py)."""
+    folder = tmp_path_factory.mktemp("fake-unity")
+    (folder / "tasks.json").write_text(json.dumps([str(p) for p in THOR_TASKS]))
+    return folder
+
+
+@pytest.fixture(scope="module")
+def ray_cluster(control):
+    """One private local Ray for the module; afterwards no process of it is left."""
+    import ray
+
+    runtime_env = {"env_vars": {"PYTHONPATH": str(ROOT), CONTROL_VARIABLE: str(control)},
+                   "worker_process_setup_hook": "tests.harness.ray_fake_unity.install"}
+    with ray_session(None, local_cpus=2, local_gpus=1, runtime_env=runtime_env):
+        keeper = [pid for pid in children_of(os.getpid()) if _is_keeper(pid)]
+        assert len(keeper) == 1
+        started = _descendants(keeper[0])
+        assert len(started) >= 3  # gcs server, raylet, agents…
+        yield ray
+    assert not ray.is_initialized()
+    _assert_gone([keeper[0], *started])
+
+
+def _is_keeper(pid: int) -> bool:
+    try:
+        return b"ray_local" in Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return False
+
+
+def _descendants(pid: int) -> list[int]:
+    out = []
+    for child in children_of(pid):
+        out += [child, *_descendants(child)]
+    return out
+
+
+def _assert_gone(pids: list[int], timeout_s: float = 20.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        alive = [pid for pid in pids if _alive(pid)]
+        if not alive:
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"Ray processes left behind: {alive}")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def demo_plan(**options):
+    return plan_episodes(load_tasks("demo"), ["random:7"],
+                         [Condition("centralized", "blind"), Condition("decentralized", "blind")],
+                         2, RunOptions(**options))
+
+
+def episodes(folder: RunFolder) -> dict[tuple, tuple]:
+    """Result lines by episode (without elapsed time) and trajectory texts; one line each."""
+    out = {}
+    for record in folder.results():
+        key = (record["model"], record["condition"], record["task_id"], record["epoch"])
+        assert key not in out, f"{key} recorded twice"
+        record = {k: v for k, v in record.items() if k != "elapsed_s"}
+        trajectory = record.get("trajectory")
+        out[key] = (record, trajectory and (folder.path / trajectory).read_text())
+    return out
+
+
+def new_folder(path: Path) -> RunFolder:
+    folder = RunFolder(path)
+    folder.create({"name": path.name})
+    return folder
+
+
+def local_run(planned, path: Path, settings: ModelSettings | None = None) -> RunFolder:
+    folder = new_folder(path)
+    asyncio.run(execute_and_close(planned, folder, ModelPool(settings), jobs=4))
+    return folder
+
+
+# -- embedded backend -----------------------------------------------------------------------
+
+@pytest.mark.slow
+def test_a_ray_run_equals_a_local_run(ray_cluster, tmp_path):
+    planned = demo_plan()
+    shapes = []
+    folder = new_folder(tmp_path / "ray")
+    execute_on_ray(planned, folder, ModelSettings(), jobs=4, options=RayOptions(workers=2),
+                   on_start=shapes.append)
+    assert [len(s.capacities) for s in shapes] == [2]
+    assert episodes(folder) == episodes(local_run(planned, tmp_path / "local"))
+    assert not list(folder.path.glob("**/*.tmp*")), "no temporary file left"
+
+
+class CountingServer(ThreadingHTTPServer):
+    """An OpenAI-compatible server answering after `delay`; counts calls in flight."""
+
+    daemon_threads = True
+
+    def __init__(self, delay: float) -> None:
+        super().__init__(("127.0.0.1", 0), _Handler)
+        self.delay, self.lock = delay, threading.Lock()
+        self.in_flight = self.peak = self.calls = 0
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.server_address[1]}/v1"
+
+
+class _Handler(BaseHTTPRequestHandler):
+    protocol_version = "HTTP/1.1"
+
+    def log_message(self, *args) -> None:
+        pass
+
+    def do_POST(self) -> None:
+        server = self.server
+        self.rfile.read(int(self.headers["Content-Length"]))
+        with server.lock:
+            server.in_flight += 1
+            server.calls += 1
+            server.peak = max(server.peak, server.in_flight)
+        time.sleep(server.delay)
+        with server.lock:
+            server.in_flight -= 1
+        body = json.dumps({"id": "x", "object": "chat.completion", "created": 0, "model": "m",
+                           "choices": [{"index": 0, "finish_reason": "stop", "message": {
+                               "role": "assistant", "content": "ACTION: 1"}}],
+                           "usage": {"prompt_tokens": 1, "completion_tokens": 1}}).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+
+@pytest.fixture
+def counting_server():
+    server = CountingServer(delay=0.1)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield server
+    server.shutdown()
+    server.server_close()
+
+
+@pytest.mark.slow
+def test_the_limit_on_model_calls_holds_across_workers(ray_cluster, counting_server, tmp_path):
+    # Two workers with 4 episodes each in flight: each worker's own semaphore would let 2
+    # calls through, 4 in all; the run's limiter lets 2 through across both.
+    planned = plan_episodes(load_tasks("demo")[:4], ["openai/m"],
+                            [Condition("centralized", "blind"),
+                             Condition("decentralized", "blind")], 1, RunOptions(max_steps=3))
+    settings = ModelSettings(api_base=counting_server.url, transport="http", max_concurrency=2,
+                             timeout_s=10)
+    folder = new_folder(tmp_path / "limited")
+    execute_on_ray(planned, folder, settings, jobs=8, options=RayOptions(workers=2))
+    records = list(folder.results())
+    assert len(records) == len(planned) and not any(r.get("infra_error") for r in records)
+    assert counting_server.calls >= len(planned)
+    assert counting_server.peak == 2
+
+
+def test_the_limiter_hands_back_abandoned_and_dead_workers_permits():
+    async def scenario():
+        limiter = ConcurrencyLimiter(limit=1)
+        assert await limiter.acquire("a", "m", "w0")
+        waiting = asyncio.create_task(limiter.acquire("b", "m", "w1"))
+        await asyncio.sleep(0)
+        limiter.release("b")  # its caller gave up before it was granted
+        limiter.release("a")
+        assert await waiting is False
+        assert await limiter.acquire("c", "m", "w2")
+        assert limiter.release_holder("w2") == 1  # w2 died holding it
+        assert await asyncio.wait_for(limiter.acquire("d", "other", "w3"), 1)
+        assert await asyncio.wait_for(limiter.acquire("e", "m", "w3"), 1)
+        return limiter.stats()
+
+    assert asyncio.run(scenario()) == {"limit": 1, "peak": {"m": 1, "other": 1},
+                                       "in_use": {"m": 1, "other": 1}}
+
+
+def test_the_fleet_fits_the_cluster():
+    cpus4 = {"CPU": 4.0}
+    shape = fleet_shape(cpus4, backend="embedded", jobs=10, workers=0, thor_gpus_per_worker=0,
+                        episodes=100)
+    assert shape.capacities == (3, 3, 2, 2) and shape.num_gpus == 0
+    assert fleet_shape(cpus4, backend="embedded", jobs=10, workers=9, thor_gpus_per_worker=0,
+                       episodes=3).capacities == (4, 3, 3)
+    thor = fleet_shape({"CPU": 16.0, "GPU": 1.0}, backend="ai2thor", jobs=8, workers=0,
+                       thor_gpus_per_worker=0.25, episodes=100)
+    assert thor.capacities == (1, 1, 1, 1) and thor.num_gpus == 0.25
+    assert len(fleet_shape({"CPU": 3.0}, backend="ai2thor", jobs=8, workers=0,
+                           thor_gpus_per_worker=0, episodes=100).capacities) == 3
+    with pytest.raises(RayUnavailable, match="--thor-gpus-per-worker 0"):
+        fleet_shape({"CPU": 16.0}, backend="ai2thor", jobs=8, workers=0,
+                    thor_gpus_per_worker=0.25, episodes=10)
+    with pytest.raises(RayUnavailable, match="no CPU"):
+        fleet_shape({}, backend="embedded", jobs=8, workers=0, thor_gpus_per_worker=0,
+                    episodes=10)
+
+
+# -- AI2-THOR over the fake Unity -----------------------------------------------------------
+
+def thor_plan():
+    return plan_episodes([load_task(p) for p in THOR_TASKS], ["random:3"],
+                         [Condition("centralized", "blind")], 1,
+                         RunOptions(backend="ai2thor", max_steps=6))
+
+
+@pytest.fixture(scope="module")
+def thor_reference(control, tmp_path_factory) -> dict:
+    """The thor plan run locally in this process over the fake Unity."""
+    pool = ControllerPool(install_exit_hooks=False)
+    saved = backends.BACKENDS["ai2thor"]
+    backends.BACKENDS["ai2thor"] = fake_thor_backend(control, pool)
+    try:
+        folder = local_run(thor_plan(), tmp_path_factory.mktemp("thor") / "local")
+    finally:
+        backends.BACKENDS["ai2thor"] = saved
+        pool.close()
+    reference = episodes(folder)
+    assert not any(r.get("infra_error") for r, _ in reference.values())
+    return reference
+
+
+@needs_thor
+@pytest.mark.slow
+def test_ai2thor_workers_equal_a_local_run(ray_cluster, thor_reference, tmp_path):
+    shapes = []
+    folder = new_folder(tmp_path / "thor")
+    execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=8,
+                   options=RayOptions(thor_gpus_per_worker=0.25), on_start=shapes.append)
+    # One logical GPU at 0.25 each: 4 workers would fit, the 2 CPUs allow 2.
+    assert shapes[0].capacities == (1, 1) and shapes[0].num_gpus == 0.25
+    assert episodes(folder) == thor_reference
+
+
+@needs_thor
+@pytest.mark.slow
+def test_a_dead_unity_or_worker_costs_one_rerun_and_a_second_death_an_error(
+        ray_cluster, thor_reference, control, tmp_path):
+    once, exits, always, _ = (p.key.task_id for p in thor_plan())
+    (control / "plan.json").write_text(json.dumps({once: "once", exits: "exit",
+                                                   always: "always"}))
+    folder = new_folder(tmp_path / "dying")
+    try:
+        execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=4,
+                       options=RayOptions(workers=2, thor_gpus_per_worker=0.5))
+    finally:
+        (control / "plan.json").unlink()
+    assert {p.name for p in control.iterdir()} >= {f"{once}.once", f"{exits}.exit"}
+    got = episodes(folder)
+    failed = {key[2]: record for key, (record, _) in got.items() if record.get("infra_error")}
+    assert list(failed) == [always]
+    assert failed[always]["infra_error"].startswith("ThorCrashed(")
+    # The others, the re-run ones included, are as if nothing had happened.
+    assert {k: v for k, v in got.items() if k[2] != always} == {
+        k: v for k, v in thor_reference.items() if k[2] != always}
+
+
+@needs_thor
+@pytest.mark.slow
+def test_workers_on_a_node_without_a_renderer_stop_the_run_before_any_episode(
+        ray_cluster, control, tmp_path):
+    (control / "no-renderer").touch()
+    folder = new_folder(tmp_path / "no-gpu")
+    try:
+        with pytest.raises(WorkerError, match=r"could not start: .*ThorUnavailable"):
+            execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=2,
+                           options=RayOptions(workers=1, thor_gpus_per_worker=0.5))
+    finally:
+        (control / "no-renderer").unlink()
+    assert list(folder.results()) == []
