@@ -52,6 +52,9 @@ def evaluate(source: str | Path | Sequence[str | Path] | None = None, *,
     """
     from cocobench_agents.cli import is_user_error
     from cocobench_agents.cli.run_cmd import run_command
+    from cocobench_agents.graphs.plugins import forget_user_planners
+
+    forget_user_planners()  # a strategy file edited since the last call is read afresh
 
     argv = run_arguments(source, models=models, out=out, conditions=conditions,
                          planners=planners, prompt_suites=prompt_suites,

@@ -2,12 +2,13 @@
 
 from .config import AgentSpec, GoalPredicate, TaskConfig
 from .errors import TaskConfigError
-from .loading import available_suites, load_task, load_tasks
+from .loading import MissingTasksWarning, available_suites, load_task, load_tasks
 from .selection import eval_sets_of, select_tasks
 
 __all__ = [
     "AgentSpec",
     "GoalPredicate",
+    "MissingTasksWarning",
     "TaskConfig",
     "TaskConfigError",
     "available_suites",

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from collections.abc import Iterable
 from importlib import resources
 from pathlib import Path
@@ -27,6 +28,11 @@ from .config import TaskConfig
 from .errors import TaskConfigError, from_json_error, from_validation_error
 
 Missing = Literal["error", "skip"]
+
+
+class MissingTasksWarning(UserWarning):
+    """Tasks an index or subset file lists were not found and were skipped (`missing="skip"`)."""
+
 
 # The reference keeps a non-instance file beside the configs; all its loaders skip it.
 POOL_FILE = "family_goal_and_skill_pool.json"
@@ -57,7 +63,8 @@ def load_tasks(source: str | Path, *, missing: Missing = "error") -> list[TaskCo
     """Load every task a source describes (file, folder, index, subset file or suite name).
 
     `missing` applies to index and subset files: `"error"` (default) raises when listed tasks
-    cannot be found, `"skip"` keeps the ones found. Duplicated task ids are always an error.
+    cannot be found, `"skip"` keeps the ones found and issues a `MissingTasksWarning` saying
+    which were skipped. Duplicated task ids are always an error.
     """
     if missing not in ("error", "skip"):
         raise ValueError(f"missing must be 'error' or 'skip', not {missing!r}")
@@ -92,11 +99,15 @@ def read_json(path: str | Path) -> Any:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise from_json_error(path, exc) from exc
-    except RecursionError:
-        data = None
-    if data is None and text.strip() != "null" or _depth_exceeds(data, MAX_JSON_DEPTH):
-        raise TaskConfigError(path, f"JSON nested more than {MAX_JSON_DEPTH} levels deep")
+    except RecursionError:  # deeper than Python's own limit
+        raise _too_deep(path) from None
+    if _depth_exceeds(data, MAX_JSON_DEPTH):
+        raise _too_deep(path)
     return data
+
+
+def _too_deep(path: str | Path) -> TaskConfigError:
+    return TaskConfigError(path, f"JSON nested more than {MAX_JSON_DEPTH} levels deep")
 
 
 def file_kind(data: Any) -> str | None:
@@ -249,14 +260,16 @@ def _scan_for_ids(paths: Iterable[Path], wanted: set[str]) -> dict[str, TaskConf
 def _report_missing(
     path: Path, field: str, absent: list[str], total: int, root: Path, missing: Missing
 ) -> None:
-    if not absent or missing == "skip":
+    if not absent:
         return
     shown = ", ".join(absent[:_SHOWN_IDS]) + (", …" if len(absent) > _SHOWN_IDS else "")
+    what = f"{len(absent)} of {total} tasks not found under {root} (e.g. {shown})"
+    if missing == "skip":
+        warnings.warn(MissingTasksWarning(f"{path}: {field}: {what}; skipped them"),
+                      stacklevel=5)  # load_tasks' caller
+        return
     raise TaskConfigError(
-        path,
-        f"{len(absent)} of {total} tasks not found under {root} (e.g. {shown}); "
-        "pass missing='skip' to load the ones present",
-        field,
+        path, f"{what}; skip them with --missing skip (missing='skip' in Python)", field
     )
 
 
@@ -296,13 +309,15 @@ def _json_type(data: Any) -> str:
 
 
 def _check_unique(tasks: list[TaskConfig]) -> None:
-    """Two configs with one task id would silently shadow each other in every later lookup."""
-    seen: dict[str, str | None] = {}
+    """Two configs with one task id would silently shadow each other in every later lookup;
+    ids differing only in case would share one episode folder on case-insensitive disks."""
+    seen: dict[str, TaskConfig] = {}
     for task in tasks:
-        if task.task_id in seen:
-            raise TaskConfigError(
-                task.source or task.task_id,
-                f"duplicated task id {task.task_id!r}, also defined in {seen[task.task_id]}",
-                "task_id",
-            )
-        seen[task.task_id] = task.source
+        other = seen.setdefault(task.task_id.casefold(), task)
+        if other is task:
+            continue
+        what = (f"duplicated task id {task.task_id!r}" if other.task_id == task.task_id
+                else f"task id {task.task_id!r} differs only in case from {other.task_id!r}")
+        raise TaskConfigError(
+            task.source or task.task_id, f"{what}, also defined in {other.source}", "task_id"
+        )

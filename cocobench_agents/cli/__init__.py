@@ -22,6 +22,8 @@ COMMANDS = {
     "report": "report_cmd:report_command",
     "doctor": "doctor_cmd:doctor_command",
     "prompts": "prompts_cmd:prompts_command",
+    "planners": "planners_cmd:planners_command",
+    "view": "view_cmd:view_command",
 }
 
 # What `cocobench --help` lists, so that it imports no subcommand (a command missing here is
@@ -35,6 +37,8 @@ SUMMARIES = {
     "report": "The paper's tables and figures from run folders.",
     "doctor": "Check Python, packages, AI2-THOR prerequisites and API keys.",
     "prompts": "List, export and preview prompt suites (the prompt a model gets).",
+    "planners": "List every planner: built in, installed by packages, or your own file.",
+    "view": "Browse run folders in a browser (live), or export them as static pages.",
 }
 
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback.
@@ -45,9 +49,11 @@ USER_ERRORS = {
     "cocobench_agents.models.errors": "ModelConfigError",
     "cocobench_agents.models.preflight": "PreflightError",
     "cocobench_agents.harness.store": "RunFolderError",
+    "cocobench_agents.harness.run_lock": "RunLocked",
     "cocobench_agents.harness.plan": "PlanError",
     "cocobench_agents.prompts.suite": "PromptSuiteError",
-    "cocobench_agents.graphs.registry": "UnknownPlanner",
+    "cocobench_agents.graphs.registry": "PlannerError",
+    "cocobench_agents.viewer.errors": "ViewerError",
 }
 
 

@@ -6,7 +6,7 @@ import json
 
 import click
 
-from benchmark_adapter.tasks import load_tasks
+from cocobench_agents.cli.run_options import load_source, missing_option
 from cocobench_agents.cli.tables import table
 
 HEADERS = ("task_id", "cell", "family", "dim", "agents", "scene", "room", "budget")
@@ -30,10 +30,11 @@ def instance_record(config) -> dict:
 @click.command("list")
 @click.argument("source", default="cocobench-240", required=False)
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list instead of a table.")
-def list_command(source: str, as_json: bool) -> None:
+@missing_option
+def list_command(source: str, as_json: bool, missing: str) -> None:
     """List the instances in SOURCE (a suite name, a config file or folder, an index.json or a
     subset file such as rep240.json; default: the cocobench-240 suite)."""
-    records = [instance_record(c) for c in load_tasks(source)]
+    records = [instance_record(c) for c in load_source(source, missing)]
     if as_json:
         click.echo(json.dumps(records, indent=2))
         return

@@ -16,16 +16,20 @@ import click
 @click.option("--seed", type=int, default=None,
               help="Bootstrap seed (default: a fixed seed, so reports are reproducible).")
 @click.option("--no-plots", is_flag=True, help="Write the tables only.")
+@click.option("--arms", is_flag=True,
+              help="Report every run as its own arm (models labelled 'MODEL @RUN'), for runs "
+                   "whose settings differ (temperature, grammar, max steps, ...).")
 @click.option("--plot-condition", metavar="COND", default=None,
               help="Condition the per-condition figures show (default: C0_image, else the "
                    "first condition).")
 def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed: int | None,
-                   no_plots: bool, plot_condition: str | None) -> None:
+                   no_plots: bool, plot_condition: str | None, arms: bool) -> None:
     """Write Markdown and CSV tables, PNG plots and an index.md for RUN folders.
 
     Several runs are reported side by side; a model found in several runs is merged, the
-    later run winning on an episode present in both. Runs still in progress or interrupted
-    are reported from their complete result lines.
+    later run winning on an episode present in both, if the runs' settings agree (else the
+    report stops, exit 2: report them apart, or with --arms). Runs still in progress or
+    interrupted are reported from their complete result lines.
     """
     # Imported here: numpy and the report code load only when a report is made.
     from cocobench_agents.report import Bootstrap, NotARunFolder, ReportError, build_report
@@ -35,11 +39,13 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
     boot = Bootstrap(resamples=resamples, seed=DEFAULT_SEED if seed is None else seed)
     try:  # build_report checks every RUN before it writes anything
         summary = build_report(list(runs), target, boot=boot, plots=not no_plots,
-                               condition=plot_condition)
+                               condition=plot_condition, arms=arms)
     except NotARunFolder as exc:
         raise click.BadParameter(str(exc), param_hint="RUN") from None
     except ReportError as exc:
         raise click.UsageError(str(exc)) from None
+    for warning in summary.warnings:
+        click.echo(f"warning: {warning}", err=True)
     for path in summary.files:
         click.echo(str(path))
     click.echo(f"{summary.episodes} episodes, {len(summary.models)} model(s), "

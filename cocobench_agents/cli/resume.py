@@ -33,15 +33,19 @@ PATHS = frozenset({"tasks", "suite", "cache_dir"})
 
 def recorded_options(kw: dict[str, Any]) -> dict[str, Any]:
     """The options to keep in `run.json`: JSON values, paths absolute, secrets redacted."""
-    out = {}
-    for name, value in kw.items():
-        if name in NOT_RECORDED:
-            continue
-        value = _json(value)
-        if name in PATHS:
-            value = _absolute(value)
-        out[name] = _redacted(name, value)
-    return out
+    return {name: _recordable(name, value) for name, value in kw.items()
+            if name not in NOT_RECORDED}
+
+
+def _recordable(name: str, value: Any) -> Any:
+    """`value` of option `name` as run.json keeps it (so that two spellings of one thing,
+    ``./suite`` and its absolute path, compare equal)."""
+    value = _json(value)
+    if name in PATHS:
+        value = _absolute(value)
+    elif name in REFERENCES:
+        value = _each(value, REFERENCES[name])
+    return _redacted(name, value)
 
 
 def restore_options(kw: dict[str, Any], recorded: dict[str, Any],
@@ -60,13 +64,39 @@ def restore_options(kw: dict[str, Any], recorded: dict[str, Any],
                     f"are never stored: give {_flag(ctx, name)} again")
             out[name] = _python(kw[name], value)
             continue
-        now = _redacted(name, _absolute(_json(kw[name])) if name in PATHS else _json(kw[name]))
+        now = _recordable(name, kw[name])
         if name in SHAPING and now != value:
             raise click.UsageError(
                 f"--resume: {_flag(ctx, name)} {_show(now)} differs from the recorded run "
                 f"({_show(value)}); it changes what is sent or scored, so a resumed run keeps "
                 "it: run without it, or into a new --out")
     return out
+
+
+def _suite_spec(text: str) -> str:
+    """A prompt suite as its canonical spec (a folder's absolute path, variants sorted)."""
+    from cocobench_agents.prompts import load_prompt_suite
+
+    return load_prompt_suite(text).spec
+
+
+def _planner_ref(text: str) -> str:
+    """A planner reference with its file, if any, made absolute (``FILE.py:NAME``)."""
+    target, sep, name = text.rpartition(":")
+    if sep and (target.endswith(".py") or "/" in target) and Path(target).is_file():
+        return f"{Path(target).resolve()}:{name}"
+    return text
+
+
+#: Options naming a prompt suite or a planner: recorded in canonical form.
+REFERENCES = {"prompt_suite": _suite_spec, "prompt_suites": _suite_spec,
+              "planner": _planner_ref, "planners": _planner_ref}
+
+
+def _each(value: Any, canonical: Any) -> Any:
+    if isinstance(value, list):
+        return [canonical(v) for v in value]
+    return canonical(value) if isinstance(value, str) else value
 
 
 def _json(value: Any) -> Any:

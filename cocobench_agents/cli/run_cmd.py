@@ -142,9 +142,7 @@ def run_command(**kw: Any) -> None:
                        if planner_spec(c.planner).uses_models})
     if record is None:
         folder.create({**run_record(kw["out"], request, pool.settings, sys.argv),
-                       # the suite as its canonical spec: a folder's absolute path
-                       "cli_options": recorded_options(
-                           {**kw, "prompt_suite": request["options"].prompt_suite})})
+                       "cli_options": recorded_options(kw)})
     click.echo(f"{len(episodes)} episodes ({len(episodes) - len(todo)} already done) "
                f"→ {folder.path}", err=True)
     stopped_early = None

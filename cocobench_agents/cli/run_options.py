@@ -1,14 +1,16 @@
-"""Shared option groups of `cocobench run`: instance selection and model settings."""
+"""Shared options of the commands: task sources, instance selection and model settings."""
 
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Callable
 from typing import Any
 
 import click
 
 from benchmark_adapter.sim.backends import BACKENDS
+from benchmark_adapter.tasks import MissingTasksWarning, TaskConfig, load_tasks
 from cocobench_agents.models import TRANSPORTS, ModelSettings
 
 process_jobs_option = click.option(
@@ -18,6 +20,26 @@ process_jobs_option = click.option(
 backend_option = click.option(
     "--backend", type=click.Choice(sorted(BACKENDS)), default="embedded", show_default=True,
     help="Simulator: the embedded one, or real AI2-THOR (pip install 'cocobench-agents[thor]').")
+
+
+missing_option = click.option(
+    "--missing", type=click.Choice(["skip", "error"]), default="skip", show_default=True,
+    help="Tasks an index or subset file (e.g. rep240.json) lists but whose configs are absent: "
+         "skip them with a warning, as the reference's eval-set selection does, or stop.")
+
+
+def load_source(source: str, missing: str) -> list[TaskConfig]:
+    """The tasks of one SOURCE; skipped missing tasks are reported on stderr in one line."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", MissingTasksWarning)
+        tasks = load_tasks(source, missing=missing)
+    for warning in caught:
+        if issubclass(warning.category, MissingTasksWarning):
+            click.echo(f"cocobench: warning: {warning.message}", err=True)
+        else:
+            warnings.showwarning(warning.message, warning.category, warning.filename,
+                                 warning.lineno)
+    return tasks
 
 
 def selection_options(command: Callable) -> Callable:

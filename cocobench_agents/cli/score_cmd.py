@@ -33,7 +33,9 @@ def score_command(trajectories: tuple[str, ...], as_json: bool) -> None:
     for path in trajectories:
         try:
             records.append(score_trajectory(load_trajectory(path)))
-        except (OSError, ValueError) as exc:  # JSONDecodeError and TrajectoryError included
+        # JSONDecodeError, UnicodeDecodeError and TrajectoryError are ValueErrors; JSON nested
+        # deeper than Python's recursion limit raises RecursionError while it is read.
+        except (OSError, ValueError, RecursionError) as exc:
             errors += 1
             click.echo(f"cocobench: error: {path}: {_describe(exc)}", err=True)
     if as_json:
@@ -69,4 +71,8 @@ def _describe(exc: Exception) -> str:
         return f"not JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
     if isinstance(exc, OSError):
         return exc.strerror or str(exc)
+    if isinstance(exc, RecursionError):
+        return "JSON nested too deeply to read"
+    if isinstance(exc, UnicodeDecodeError):
+        return f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start})"
     return str(exc)

@@ -7,9 +7,13 @@ import time
 import click
 
 from benchmark_adapter.sim.backends import check_backend
-from benchmark_adapter.tasks import load_tasks
 from benchmark_adapter.validation import METRIC_GATE, validate_tasks
-from cocobench_agents.cli.run_options import backend_option, process_jobs_option
+from cocobench_agents.cli.run_options import (
+    backend_option,
+    load_source,
+    missing_option,
+    process_jobs_option,
+)
 from cocobench_agents.cli.tables import table
 
 HEADERS = ("task_id", "cell", "agents", "steps", "success", "legal", "construct", "result")
@@ -19,11 +23,12 @@ HEADERS = ("task_id", "cell", "agents", "steps", "success", "legal", "construct"
 @click.argument("source")
 @process_jobs_option
 @backend_option
-def validate_command(source: str, jobs: int, backend: str) -> None:
+@missing_option
+def validate_command(source: str, jobs: int, backend: str, missing: str) -> None:
     """Run the oracle of every instance in SOURCE and check it succeeds with a legal plan and a
     construct score of at least 0.95. Exit 1 if any instance fails."""
     check_backend(backend)
-    configs = load_tasks(source)
+    configs = load_source(source, missing)
     if not configs:
         raise click.ClickException(f"{source}: no instances to validate")
     start = time.perf_counter()

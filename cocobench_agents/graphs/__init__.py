@@ -1,5 +1,6 @@
 """Planner graphs: centralized (C0), decentralized (D0), decentralized with broadcast (D1),
-leader–worker, and the oracle, behind the `PLANNERS` registry.
+leader–worker, and the oracle, behind the `PLANNERS` registry; and the building blocks a
+strategy of your own reuses (docs/planners.md, "Write it in your own file").
 
 Names load on first use (PEP 562): reading the registry (`--help`, run plans, resume checks)
 must not import LangGraph; building a graph does.
@@ -11,10 +12,17 @@ import importlib
 from typing import Any
 
 _EXPORTS = {
-    "PlannerContext": "context",
-    "PLANNERS": "registry", "PlannerSpec": "registry", "UnknownPlanner": "registry",
-    "compiled_graph": "registry", "planner_spec": "registry",
-    "PlannerState": "state",
+    # the registry, and planners from the researcher's code
+    "PLANNERS": ".registry", "PlannerSpec": ".registry", "PlannerError": ".registry",
+    "UnknownPlanner": ".registry", "compiled_graph": ".registry", "planner_spec": ".registry",
+    "find_planner": ".registry", "lazy_builder": ".registry",
+    # what a strategy is made of
+    "PlannerContext": ".context",
+    "PlannerState": ".state", "TEAM": ".state", "team_history": ".state",
+    "decide": ".decision",
+    "observe_next": ".nodes", "land_round": ".nodes", "continue_or_end": ".nodes",
+    "fan_out": ".decentralized", "add_round": ".decentralized",
+    "RetryPolicy": "cocobench_agents.models.retry",
 }
 __all__ = sorted(_EXPORTS)
 
@@ -23,4 +31,4 @@ def __getattr__(name: str) -> Any:
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    return getattr(importlib.import_module(module, __name__), name)

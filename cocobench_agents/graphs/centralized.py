@@ -8,7 +8,7 @@ from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
 
 from cocobench_agents.graphs.context import PlannerContext
-from cocobench_agents.graphs.decide import decide
+from cocobench_agents.graphs.decision import decide
 from cocobench_agents.graphs.nodes import continue_or_end, observe_next
 from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
 from cocobench_agents.prompts import history_line

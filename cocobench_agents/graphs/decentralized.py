@@ -12,7 +12,7 @@ from langgraph.runtime import Runtime
 from langgraph.types import Send
 
 from cocobench_agents.graphs.context import PlannerContext
-from cocobench_agents.graphs.decide import decide
+from cocobench_agents.graphs.decision import decide
 from cocobench_agents.graphs.nodes import land_round
 from cocobench_agents.graphs.state import PlannerState
 

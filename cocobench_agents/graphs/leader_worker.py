@@ -16,7 +16,7 @@ from langgraph.runtime import Runtime
 
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decentralized import add_round, fan_out
-from cocobench_agents.graphs.decide import accepts_images
+from cocobench_agents.graphs.decision import accepts_images
 from cocobench_agents.graphs.nodes import continue_or_end
 from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
 from cocobench_agents.models.protocol import ModelError, ModelRequest

@@ -18,6 +18,7 @@ _EXPORTS = {
     "pending_episodes": "record", "run_record": "record",
     "RunFolder": "store", "RunFolderError": "store",
     "WorkerError": "workers", "available_cores": "workers", "execute_in_workers": "workers",
+    "RayOptions": "ray_executor", "execute_on_ray": "ray_executor",
 }
 __all__ = sorted(_EXPORTS)
 

@@ -71,7 +71,6 @@ async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactor
         controller = _controller(spec)
         document, result = await asyncio.wait_for(
             run_episode(spec, pool, controller=controller), timeout_s)
-        relative = folder.write_trajectory(key, document)
     except Exception as exc:  # noqa: BLE001 - one broken episode must not stop the run
         elapsed = time.perf_counter() - started
         error = redact(repr(exc), _secrets(pool))
@@ -79,6 +78,9 @@ async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactor
             error = (f"episode timed out after {timeout_s:g} s of wall-clock time "
                      "(--episode-timeout)")
         return infra_error_record(planned, error, elapsed)
+    # Outside the try: a run folder that cannot be written stops the run
+    # (`RunFolderWriteError`); it is not this episode failing.
+    relative = folder.write_trajectory(key, document)
     result = result.model_copy(update={
         "condition": key.condition, "epoch": key.epoch, "trajectory": relative,
         "elapsed_s": round(time.perf_counter() - started, 3)})

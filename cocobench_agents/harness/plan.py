@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 from benchmark_adapter.tasks import TaskConfig
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
-from cocobench_agents.graphs import PLANNERS, planner_spec
+from cocobench_agents.graphs import PLANNERS, find_planner, planner_spec
 from cocobench_agents.harness.store import EpisodeKey
 from cocobench_agents.prompts import DEFAULT_SUITE
 
@@ -36,23 +36,36 @@ class Condition:
 
 
 def parse_conditions(text: str) -> list[Condition]:
-    """`all`, `image`, `blind`, or comma-separated names: `C0_image,D1_blind`, or a planner
-    name with a mode: `leader-worker_blind`."""
-    by_code = {spec.code: spec.name for spec in PLANNERS.values()}
+    """`all`, `image`, `blind`, or comma-separated names: `C0_image,D1_blind`, a planner
+    name with a mode: `leader-worker_blind`, an installed planner's code (`CL_image`) or a
+    planner of your own: `my_strategy.py:build_mine_image`."""
     names: list[str] = []
     for part in (p.strip() for p in text.split(",") if p.strip()):
         names.extend(SHORTCUTS.get(part, [part]))
     out: list[Condition] = []
     for name in dict.fromkeys(names):
         head, _, obs = name.rpartition("_")
-        planner = by_code.get(head, head)
-        if planner not in PLANNERS or obs not in OBS_MODES:
+        planner = find_planner(head) if head and obs in OBS_MODES else None
+        if planner is None:
+            codes = "|".join(spec.code for spec in PLANNERS.values())
             raise PlanError(f"unknown condition {name!r}: use all, image, blind, or "
-                            f"<{'|'.join(by_code)}>_<image|blind> (planner names work too)")
+                            f"<{codes}>_<image|blind> (planner names, installed planners' "
+                            "codes and FILE.py:NAME work too; see `cocobench planners`)")
         out.append(Condition(planner, obs))
     if not out:
         raise PlanError("no conditions given")
+    _check_distinct(out)
     return out
+
+
+def _check_distinct(conditions: list[Condition]) -> None:
+    """Two planners sharing a condition code would share run folders and report rows."""
+    seen: dict[str, str] = {}
+    for cond in conditions:
+        other = seen.setdefault(cond.name, cond.planner)
+        if other != cond.planner:
+            raise PlanError(f"planners {other} and {cond.planner} share the condition "
+                            f"{cond.name}; give one of them another code")
 
 
 @dataclass(frozen=True)

@@ -10,10 +10,11 @@ from pathlib import Path
 from typing import Any
 
 from cocobench_agents import __version__
+from cocobench_agents.graphs.plugins import planners_record
 from cocobench_agents.harness.infra import is_infra_failure
 from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.store import RunFolder, result_key
-from cocobench_agents.models import ModelSettings, redact
+from cocobench_agents.harness.store import RunFolder
+from cocobench_agents.models import ModelSettings, is_builtin, redact
 from cocobench_agents.prompts import load_prompt_suite
 
 PACKAGES = ("cocobench-agents", "langgraph", "litellm", "pydantic", "pillow", "ai2thor")
@@ -30,6 +31,8 @@ def run_record(out: str, request: dict[str, Any], settings: ModelSettings,
         "cocobench_agents": __version__,
         "versions": {"python": platform.python_version(), **_package_versions()},
         "prompt_suite": suite.record(),  # spec, version, content hash (and a folder's path)
+        # planners from the researcher's code: code, origin, file hash (guards a resume)
+        "planners": planners_record(c.planner for c in request["conditions"]),
         "plan": {"sources": request["sources"], "task_ids": request["task_ids"],
                  "models": request["models"], "agent_models": request["agent_models"],
                  "conditions": [c.name for c in request["conditions"]],
@@ -37,6 +40,11 @@ def run_record(out: str, request: dict[str, Any], settings: ModelSettings,
         "options": {"backend": options.backend, "max_steps": options.max_steps,
                     "stable_ids": options.stable_ids},
         "model_settings": settings.to_record(),
+        # What "auto" resolved to, per remote model: the temperature sent (None: none sent).
+        "temperature_sent": {
+            model: settings.temperature_for(model)
+            for model in dict.fromkeys([*request["models"], *request["agent_models"].values()])
+            if not is_builtin(model) and model != "oracle"},
         "request": _replayable_request(request),
         "command": redact(" ".join(argv), settings.secrets()),
     }
@@ -66,9 +74,9 @@ def _package_versions() -> dict[str, str]:
 
 def pending_episodes(episodes: Sequence[PlannedEpisode], folder: RunFolder, *,
                      retry_errors: bool = False) -> list[PlannedEpisode]:
-    """The planned episodes without a result line (plus infrastructure failures,
-    when asked: see `is_infra_failure`)."""
-    # A later line (a retry) supersedes an earlier one.
-    done = {result_key(record): record for record in folder.results()}
+    """The planned episodes without a valid result line and trajectory (plus infrastructure
+    failures, when asked: see `is_infra_failure`). An episode whose latest line is invalid
+    or whose trajectory is missing counts as not done (`RunFolder.scan_results`)."""
+    done = folder.scan_results(check_trajectories=True).done
     return [p for p in episodes
             if p.key not in done or (retry_errors and is_infra_failure(done[p.key]))]

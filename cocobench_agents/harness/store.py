@@ -1,22 +1,31 @@
-"""The run folder (DESIGN §4): `run.json`, `results.jsonl`, one trajectory per episode.
+"""The run folder (DESIGN §4): `run.json`, `results.jsonl`, one trajectory (and one
+compressed file of the prompts its decisions name) per episode, `run.lock`.
 
 Crash safety: a trajectory is written atomically (temp file + rename) before its result line;
-each result line is appended with a single `write` and fsync'd. A SIGKILL can at worst leave
-one partial last line, which readers skip and `open_for_resume` cuts off. So the folder is
-never corrupt, and an episode counts as done only once its line is complete.
+each result line is appended whole or not at all (short writes are completed; a failed write
+is cut back off) and fsync'd. A SIGKILL can at worst leave one partial last line, which
+readers skip and `open_for_resume` cuts off. So the folder is never corrupt, and an episode
+counts as done only once its line is complete and its trajectory is there. A folder that
+cannot be written stops the run (`RunFolderWriteError`): it is not the episode failing.
 """
 
 from __future__ import annotations
 
+import contextlib
+import gzip
 import json
 import os
 import re
+import tempfile
+import zlib
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from benchmark_adapter.trajectory import write_json_atomic
+from cocobench_agents.harness.result_rows import row_error, row_identity
+from cocobench_agents.harness.run_lock import RunLock
 
 
 def model_slug(model: str) -> str:
@@ -45,10 +54,40 @@ class EpisodeKey:
 
 RESULTS = "results.jsonl"
 RUN_FILE = "run.json"
+PROMPTS_FILE = "prompts.json.gz"
+#: The trajectory field carrying the prompts its decisions name by `prompt_hash`; the run
+#: folder keeps them in the episode's `PROMPTS_FILE` instead of the trajectory.
+PROMPTS_FIELD = "prompts"
+SHOWN_PROBLEMS = 10  # problems of a results file named one by one; the rest are counted
 
 
 class RunFolderError(ValueError):
     """A run folder that cannot be used as asked (exists without --resume, …)."""
+
+
+class RunFolderWriteError(RuntimeError):
+    """The run folder could not be written (a full disk, an I/O error): the run stops, what
+    it recorded stays valid, and `--resume` completes it."""
+
+
+@dataclass
+class ResultsScan:
+    """What `results.jsonl` holds: its valid lines, and every problem found in it."""
+
+    rows: list[dict[str, Any]] = field(default_factory=list)  # valid lines, in file order
+    #: Each episode's latest valid line (an episode whose latest line is invalid is absent).
+    latest: dict[EpisodeKey, dict[str, Any]] = field(default_factory=dict)
+    #: Episodes of `latest` whose trajectory file is missing (when checked).
+    missing: list[EpisodeKey] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)  # one line each, naming file and line
+    invalid_lines: int = 0
+    torn_tail: bool = False  # an incomplete last line (a crash in mid-write), skipped
+
+    @property
+    def done(self) -> dict[EpisodeKey, dict[str, Any]]:
+        """The episodes that count as done: a valid latest line, and its trajectory."""
+        missing = set(self.missing)
+        return {k: r for k, r in self.latest.items() if k not in missing}
 
 
 class RunFolder:
@@ -56,75 +95,250 @@ class RunFolder:
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
+        self.warnings: list[str] = []  # what `open_for_resume` repaired or found wrong
 
     @property
     def results_path(self) -> Path:
         return self.path / RESULTS
+
+    @contextlib.contextmanager
+    def lock(self) -> Iterator[RunLock]:
+        """Hold the folder's lock (creating the folder) for the whole run: a second process
+        gets `RunLocked` naming the holder's pid; a killed holder's lock is taken over (its
+        pid in `stale_pid`)."""
+        try:
+            lock = RunLock(self.path).acquire()
+        except OSError as exc:
+            raise RunFolderError(f"cannot use {self.path} as a run folder: "
+                                 f"{exc.strerror or exc}") from None
+        try:
+            yield lock
+        finally:
+            lock.release()
 
     def create(self, run_record: dict[str, Any]) -> None:
         """Start a new run; refuse to touch an existing one."""
         if (self.path / RUN_FILE).exists() or self.results_path.exists():
             raise RunFolderError(f"{self.path} already holds a run: pass --resume to complete "
                                  "it, or choose another --out folder")
-        self.path.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(self.path / RUN_FILE, run_record)
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+            write_json_atomic(self.path / RUN_FILE, run_record)
+        except OSError as exc:
+            raise RunFolderError(f"cannot write {self.path / RUN_FILE}: "
+                                 f"{exc.strerror or exc}") from None
 
     def open_for_resume(self) -> dict[str, Any] | None:
-        """The recorded run (None if the folder holds none yet); a torn last result line
-        (from a kill) is cut off."""
+        """The recorded run (None if the folder holds none yet). A torn last result line
+        (from a kill) is cut off; that repair and every problem of the results (invalid
+        lines, missing trajectories) are left in `warnings`."""
+        self.warnings = []
         if not (self.path / RUN_FILE).exists():
             if self.results_path.exists():
                 raise RunFolderError(f"{self.path} has results but no {RUN_FILE}")
             return None
-        self._drop_torn_tail()
-        return self.run_record()
+        record = self.run_record()
+        if not isinstance(record.get("plan"), dict):
+            raise RunFolderError(f"{self.path / RUN_FILE}: not a run record (no plan)")
+        cut = self._drop_torn_tail()
+        if cut:
+            self.warnings.append(f"{self.results_path}: removed an incomplete last line "
+                                 f"({cut} bytes, from a run stopped in mid-write)")
+        self.warnings += self.scan_results(check_trajectories=True).problems
+        return record
 
     def run_record(self) -> dict[str, Any]:
-        with open(self.path / RUN_FILE, encoding="utf-8") as f:
-            return json.load(f)
+        """`run.json` (`RunFolderError` naming it if it is not a JSON object)."""
+        path = self.path / RUN_FILE
+        try:
+            with open(path, encoding="utf-8") as f:
+                record = json.load(f)
+        except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, too deep
+            raise RunFolderError(f"{path}: not a run record ({_gist(exc)})") from None
+        if not isinstance(record, dict):
+            raise RunFolderError(f"{path}: not a run record (a JSON object)")
+        return record
 
     def update_run_record(self, record: dict[str, Any]) -> None:
         write_json_atomic(self.path / RUN_FILE, record)
 
     def write_trajectory(self, key: EpisodeKey, document: dict[str, Any]) -> str:
-        """Write an episode's trajectory; return its path relative to the run folder."""
+        """Write an episode's trajectory (its `PROMPTS_FIELD` to the episode's compressed
+        prompt file); return its path relative to the run folder."""
         relative = f"{key.folder()}/trajectory.json"
-        write_json_atomic(self.path / relative, document)
+        target = self.inside(relative)
+        prompts = document.get(PROMPTS_FIELD)
+        try:
+            if prompts is not None:
+                document = {k: v for k, v in document.items() if k != PROMPTS_FIELD}
+                _write_bytes_atomic(target.parent / PROMPTS_FILE, _compressed(prompts))
+            write_json_atomic(target, document)
+        except OSError as exc:
+            raise _write_failed(target, exc) from None
         return relative
 
-    def append_result(self, record: dict[str, Any]) -> None:
-        """Append one result line atomically (one write of a whole line, then fsync)."""
-        line = (json.dumps(record, sort_keys=True, ensure_ascii=False) + "\n").encode("utf-8")
-        fd = os.open(self.results_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    def prompts(self, key: EpisodeKey) -> dict[str, str]:
+        """An episode's prompts by `prompt_hash` (a decision record's field); empty for an
+        episode without model calls or a folder written before prompts were kept."""
+        path = self.inside(f"{key.folder()}/{PROMPTS_FILE}")
         try:
-            os.write(fd, line)
-            os.fsync(fd)
+            return json.loads(gzip.decompress(path.read_bytes()))
+        except FileNotFoundError:
+            return {}
+        except (OSError, EOFError, ValueError, zlib.error) as exc:  # a damaged file
+            raise RunFolderError(f"{path}: unreadable ({_gist(exc)})") from None
+
+    def prompt(self, key: EpisodeKey, prompt_hash: str) -> str | None:
+        """The text of the prompt a decision of episode `key` names (None if not kept)."""
+        return self.prompts(key).get(prompt_hash)
+
+    def inside(self, relative: str) -> Path:
+        """The path of `relative` in the run folder; refuses one that would leave it (`..`,
+        an absolute path, a NUL byte): nothing is ever written outside the run folder."""
+        root = os.path.normpath(os.path.abspath(self.path))
+        target = os.path.normpath(os.path.join(root, relative))
+        if "\0" in relative or target == root or os.path.commonpath([root, target]) != root:
+            raise RunFolderError(f"refusing to write {relative!r}: it is not inside the run "
+                                 f"folder {self.path}")
+        return Path(target)
+
+    def append_result(self, record: dict[str, Any]) -> None:
+        """Append one result line, whole or not at all, and fsync it; `RunFolderWriteError`
+        (the file cut back to its previous end) if it cannot be written."""
+        line = (json.dumps(record, sort_keys=True, ensure_ascii=False) + "\n").encode("utf-8")
+        try:
+            fd = os.open(self.results_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise _write_failed(self.results_path, exc) from None
+        try:
+            end = os.lseek(fd, 0, os.SEEK_END)
+            try:
+                _write_all(fd, line)
+                os.fsync(fd)
+            except OSError as exc:
+                _truncate(fd, end)  # no partial line for the next one to be glued to
+                raise _write_failed(self.results_path, exc) from None
         finally:
             os.close(fd)
 
     def results(self) -> Iterator[dict[str, Any]]:
-        """Complete result lines in file order (a torn last line is skipped)."""
-        if not self.results_path.exists():
-            return
-        with open(self.results_path, encoding="utf-8") as f:
-            for line in f:
-                if line.endswith("\n"):
-                    try:
-                        yield json.loads(line)
-                    except json.JSONDecodeError:
-                        continue
+        """Valid result lines in file order (invalid ones and a torn last line are skipped:
+        `scan_results` names them)."""
+        yield from self.scan_results().rows
 
-    def _drop_torn_tail(self) -> None:
-        if not self.results_path.exists():
+    def scan_results(self, *, check_trajectories: bool = False) -> ResultsScan:
+        """Read `results.jsonl`, validating every line (`result_rows.ResultRow`); with
+        `check_trajectories`, also find the episodes whose trajectory file is missing."""
+        scan = ResultsScan()
+        try:
+            data = self.results_path.read_bytes()
+        except FileNotFoundError:
+            return scan
+        *lines, tail = data.split(b"\n")
+        scan.torn_tail = bool(tail)
+        for number, raw in enumerate(lines, start=1):
+            self._scan_line(scan, number, raw)
+        if check_trajectories:
+            self._find_missing_trajectories(scan)
+        if len(scan.problems) > SHOWN_PROBLEMS:
+            hidden = len(scan.problems) - SHOWN_PROBLEMS
+            scan.problems[SHOWN_PROBLEMS:] = [f"{self.results_path}: {hidden} more problems"]
+        return scan
+
+    def _scan_line(self, scan: ResultsScan, number: int, raw: bytes) -> None:
+        try:
+            data: Any = json.loads(raw.decode("utf-8"))
+            error = row_error(data)
+        except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, nested too deep
+            data, error = None, f"not JSON ({_gist(exc)})"
+        if error is None:
+            scan.rows.append(data)
+            key = result_key(data)
+            scan.latest.pop(key, None)  # a later line (a retry) supersedes an earlier one
+            scan.latest[key] = data
             return
+        scan.invalid_lines += 1
+        identity = row_identity(data)
+        outcome = "skipped"
+        if identity is not None:
+            key = EpisodeKey(*identity)
+            scan.latest.pop(key, None)
+            outcome = f"episode {_name(key)} counts as not done"
+        scan.problems.append(f"{self.results_path} line {number}: {error}; {outcome}")
+
+    def _find_missing_trajectories(self, scan: ResultsScan) -> None:
+        for key, row in scan.latest.items():
+            relative = row.get("trajectory")
+            if row.get("infra_error") or not relative:
+                continue
+            try:
+                present = self.inside(relative).is_file()
+            except (RunFolderError, OSError):  # outside the folder, or not a usable path
+                present = False
+            if not present:
+                scan.missing.append(key)
+                scan.problems.append(f"{self.path / relative}: missing; episode {_name(key)} "
+                                     "counts as not done")
+
+    def _drop_torn_tail(self) -> int:
+        """Cut an incomplete last line off; how many bytes were cut."""
+        if not self.results_path.exists():
+            return 0
         data = self.results_path.read_bytes()
         end = data.rfind(b"\n") + 1
         if end != len(data):
             with open(self.results_path, "r+b") as f:
                 f.truncate(end)
+        return len(data) - end
 
 
 def result_key(record: dict[str, Any]) -> EpisodeKey:
     """The episode a result line belongs to."""
     return EpisodeKey(record["model"], record["condition"], record["task_id"],
                       int(record.get("epoch") or 0))
+
+
+def _name(key: EpisodeKey) -> str:
+    epoch = f" epoch {key.epoch}" if key.epoch else ""
+    return f"{key.model} {key.condition} {key.task_id}{epoch}"
+
+
+def _gist(exc: BaseException) -> str:
+    return str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
+
+
+def _write_failed(path: Path, exc: OSError) -> RunFolderWriteError:
+    return RunFolderWriteError(f"cannot write {path}: {exc.strerror or exc}")
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    """`os.write` until every byte is written (it may write fewer than asked)."""
+    view = memoryview(data)
+    while view:
+        written = os.write(fd, view)
+        if written <= 0:
+            raise OSError(0, "the file system accepted no more bytes")
+        view = view[written:]
+
+
+def _truncate(fd: int, size: int) -> None:
+    with contextlib.suppress(OSError):  # else the partial line stays: readers name it
+        os.ftruncate(fd, size)
+
+
+def _compressed(prompts: dict[str, str]) -> bytes:
+    # One gzip stream per episode: consecutive prompts share most of their text.
+    text = json.dumps(prompts, ensure_ascii=False, sort_keys=True)
+    return gzip.compress(text.encode("utf-8"), compresslevel=6, mtime=0)
+
+
+def _write_bytes_atomic(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

@@ -15,7 +15,8 @@ HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DI
 
 def summary_rows(records: Iterable[dict[str, Any]]) -> list[list[Any]]:
     """One row per (model, condition): episodes, success rate, mean construct score overall
-    and per dimension (scored episodes only), legal-plan rate, infrastructure failures (`is_infra_failure`)."""
+    and per dimension (scored episodes only), legal-plan rate, and the infrastructure
+    failures (`is_infra_failure`)."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for record in latest(records):
         groups.setdefault((record["model"], record["condition"]), []).append(record)

@@ -5,7 +5,8 @@ One process runs out of CPU long before a fast model server runs out of answers 
 the simulator and the client cost milliseconds per call): ``--workers`` spreads the episodes
 over cores. Workers write trajectories; only the parent appends to ``results.jsonl`` (one
 writer keeps every line whole), as each worker sends a result back. A worker that dies loses
-only the episodes it had in flight: ``--resume`` runs them again.
+only the episodes it had in flight: ``--resume`` runs them again. A worker that cannot write
+the run folder sends the error instead, and the parent stops the run with it.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from typing import Any
 
 from cocobench_agents.harness.batch import ResultCallback, execute_and_close, longest_first
 from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.store import RunFolder
+from cocobench_agents.harness.store import RunFolder, RunFolderError, RunFolderWriteError
 from cocobench_agents.models import ModelPool, ModelSettings
 
 
@@ -81,6 +82,8 @@ def _collect(running: dict[Connection, Any], folder: RunFolder,
                 if process.exitcode != 0:
                     died.append(f"{process.name} (exit code {process.exitcode})")
                 continue
+            if isinstance(record, (RunFolderError, RunFolderWriteError)):
+                raise record  # a worker could not write the run folder: the run stops
             folder.append_result(record)
             if on_result is not None:
                 on_result(record)
@@ -94,8 +97,11 @@ def _work(episodes: list[PlannedEpisode], folder_path: Path, settings: ModelSett
     # The parent owns Ctrl-C (it stops the workers); a worker must not outlive it either.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent()
-    asyncio.run(execute_and_close(episodes, RunFolder(folder_path), ModelPool(settings),
-                                  jobs=jobs, store_result=send.send, **run_options))
+    try:
+        asyncio.run(execute_and_close(episodes, RunFolder(folder_path), ModelPool(settings),
+                                      jobs=jobs, store_result=send.send, **run_options))
+    except (RunFolderError, RunFolderWriteError) as exc:
+        send.send(exc)  # the parent stops the run with it (no traceback from here)
     send.close()
 
 

@@ -165,7 +165,7 @@ def _suite_folder(base: str) -> Path:
     folder = Path(base).expanduser()
     if folder.is_dir():
         return folder.resolve()
-    if Path(base).name == base and not base.endswith(".json"):  # a bare name: a typo
+    if Path(base).name == base:  # a bare name: a misspelt shipped suite
         raise PromptSuiteError(f"unknown prompt suite {base!r} (shipped: "
                                f"{', '.join(available_suites())}; or a suite folder's path)")
     raise PromptSuiteError(f"prompt suite folder {base}: no such folder")

@@ -40,6 +40,7 @@ class ReportSummary:
     models: list[str] = field(default_factory=list)
     conditions: list[str] = field(default_factory=list)
     plot_condition: str | None = None
+    warnings: list[str] = field(default_factory=list)  # about the runs read (invalid lines)
 
 
 def compute_tables(data: ReportData, boot: Bootstrap | None = None) -> list[Table]:
@@ -62,14 +63,15 @@ def plot_condition(data: ReportData, wanted: str | None = None) -> str | None:
 
 def build_report(runs: Sequence[str | Path], out: str | Path, *,
                  boot: Bootstrap | None = None, plots: bool = True,
-                 condition: str | None = None) -> ReportSummary:
+                 condition: str | None = None, arms: bool = False) -> ReportSummary:
     """Read the run folders (merged, later runs winning) and write the report into `out`.
 
     `condition` is the one per-condition figures show (default C0_image, else the first).
     Plots are skipped, with a note in the summary and index, when matplotlib is missing.
+    Runs whose settings differ cannot share a row unless `arms` (see `load_runs`).
     """
     boot = boot or Bootstrap()
-    data = load_runs(list(runs))
+    data = load_runs(list(runs), arms=arms)
     shown = plot_condition(data, condition)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -98,7 +100,8 @@ def build_report(runs: Sequence[str | Path], out: str | Path, *,
     files.insert(0, _write(out / "index.md", index_markdown(data, made, written, boot, note)))
     return ReportSummary(out=out, files=files, tables=made, plots=written, plot_note=note,
                          episodes=len(data.episodes), models=list(data.models),
-                         conditions=list(data.conditions), plot_condition=shown)
+                         conditions=list(data.conditions), plot_condition=shown,
+                         warnings=list(data.warnings))
 
 
 def _write(path: Path, text: str) -> Path:

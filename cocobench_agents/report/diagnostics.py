@@ -95,6 +95,7 @@ COST_COLUMNS = (  # key, header, kind, shown in Markdown (all are in CSV)
     ("completion_tokens", "Completion tok.", "tokens", False),
     ("tokens", "Tokens", "tokens", True),
     ("cost_usd", "Cost ($)", "usd", True),
+    ("saved_cost_usd", "Saved ($)", "usd", True),
 )
 
 
@@ -109,8 +110,10 @@ def cost(ctx: Ctx) -> Table:
         "Means per episode (with intervals) and totals. Time = wall-clock seconds of the "
         "episode; Steps = executed action steps; Planner calls = model calls (the "
         "planner's step counter when usage was not recorded); Tokens = prompt + completion; "
-        "Cost = the model client's dollar estimate (0 for offline models). The CSV also "
-        "splits tokens into prompt and completion.", columns)
+        "Cost = the model client's dollar estimate (0 for offline models). Replies reused "
+        "from the response cache or replayed from a recorded run made no model call: they "
+        "count 0 tokens and 0 cost, and Saved = what their original calls had cost. The CSV "
+        "also splits tokens into prompt and completion.", columns)
     ep = ctx.ep
     tokens = ep.col("prompt_tokens") + ep.col("completion_tokens")
     for model, condition, mask in ctx.cells():

@@ -1,7 +1,9 @@
 """Reading run folders into one table of episodes.
 
-Each run folder's complete `results.jsonl` lines are read with `RunFolder.results()` (a torn
-last line of a run in progress or a killed run is skipped). An episode is identified by
+Each run folder's `results.jsonl` is read with `RunFolder.scan_results()`: every line is
+validated (`harness.result_rows.ResultRow`, pydantic); invalid lines are skipped and counted
+in a warning, and a torn last line of a run in progress or a killed run is skipped (a note).
+An episode whose latest line is invalid is left out. An episode is identified by
 (model, condition, task_id, epoch): a later line supersedes an earlier one in the same run
 (retries), and a later run supersedes an earlier one when several runs are reported together,
 so the same model in several runs is merged into one set of episodes.
@@ -9,7 +11,6 @@ so the same model in several runs is merged into one set of episodes.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from cocobench_agents.harness.infra import is_infra_failure
 from cocobench_agents.harness.store import RESULTS, RUN_FILE, RunFolder, RunFolderError
+from cocobench_agents.report.arms import arm_label, difference, row_settings
 
 DIMENSIONS = ("D1", "D2", "D3", "D4")
 OBS_ORDER = ("image", "blind")
@@ -41,6 +44,8 @@ _NUMERIC = {
     "prompt_tokens": lambda r: _usage(r, "prompt_tokens"),
     "completion_tokens": lambda r: _usage(r, "completion_tokens"),
     "cost_usd": lambda r: _usage(r, "cost_usd"),
+    "saved_cost_usd": lambda r: _usage(r, "saved_cost_usd"),
+    "infra_failure": lambda r: float(is_infra_failure(r)),
     "agent_count": lambda r: r.get("agent_count"),
     **{f"cross_{d}": (lambda r, d=d: _cross(r, d)) for d in DIMENSIONS},
 }
@@ -64,7 +69,9 @@ class RunInfo:
     lines: int  # complete result lines
     torn_tail: bool  # an incomplete last line was skipped
     episodes: int  # distinct episodes after retries
-    infra_errors: int  # among those episodes
+    infra_errors: int  # among those episodes (see `is_infra_failure`)
+    invalid_lines: int = 0  # result lines skipped: not JSON, or not a valid result
+    missing_trajectories: int = 0  # episodes whose trajectory file is not in the folder
 
     @property
     def superseded(self) -> int:
@@ -169,18 +176,28 @@ def check_run_folder(path: str | Path) -> Path:
     return p
 
 
-def load_runs(paths: Sequence[str | Path]) -> ReportData:
-    """Read and merge the run folders, later runs winning on duplicate episodes."""
+def load_runs(paths: Sequence[str | Path], *, arms: bool = False) -> ReportData:
+    """Read and merge the run folders, later runs winning on duplicate episodes. A report
+    row (model, condition) takes episodes of several runs only if their settings agree
+    (`arms.row_settings`), else `ReportError`; with `arms`, each run's models are labelled
+    by the run's path as given (separate rows)."""
     if not paths:
         raise NotARunFolder("no run folder given")
     folders = [check_run_folder(p) for p in paths]
     merged: dict[tuple, tuple[int, dict[str, Any]]] = {}
+    row_runs: dict[tuple[str, str], int] = {}  # report row -> the first run with episodes
     runs, models, conditions, across = [], [], [], 0
     for index, path in enumerate(folders):
         info, records = _read_run(path)
+        if arms:
+            records = {(arm_label(k[0], path), *k[1:]): r for k, r in records.items()}
         runs.append(info)
-        models += info.models
+        models += [arm_label(m, path) for m in info.models] if arms else info.models
         conditions += info.conditions
+        for row in dict.fromkeys(key[:2] for key in records):
+            first = row_runs.setdefault(row, index)
+            if first != index:
+                _check_same_settings(runs[first], info, *row)
         for key, record in records.items():
             across += key in merged
             merged[key] = (index, record)
@@ -194,7 +211,16 @@ def load_runs(paths: Sequence[str | Path]) -> ReportData:
     items = sorted(merged.items(), key=lambda kv: (
         models.index(kv[0][0]), conditions.index(kv[0][1]), kv[0][2], kv[0][3]))
     return ReportData(runs=runs, episodes=_columns(items), models=models,
-                      conditions=conditions, superseded_across_runs=across)
+                      conditions=conditions, superseded_across_runs=across,
+                      warnings=invalid_line_warnings(runs))
+
+
+def _check_same_settings(first: RunInfo, other: RunInfo, model: str, condition: str) -> None:
+    differ = difference(row_settings(first.record, model), row_settings(other.record, model))
+    if differ:
+        raise ReportError(
+            f"{first.path} and {other.path} both hold {model} {condition} episodes but differ "
+            f"in {differ}: report them separately, or pass --arms to make each run its own arm")
 
 
 def _read_run(path: Path) -> tuple[RunInfo, dict[tuple, dict[str, Any]]]:
@@ -203,37 +229,27 @@ def _read_run(path: Path) -> tuple[RunInfo, dict[tuple, dict[str, Any]]]:
     if (path / RUN_FILE).is_file():
         try:
             record = folder.run_record()
-        except (OSError, json.JSONDecodeError) as exc:
+        except OSError as exc:
             raise NotARunFolder(f"{path / RUN_FILE}: unreadable ({exc})") from None
-        if not isinstance(record, dict):
-            raise NotARunFolder(f"{path / RUN_FILE}: not a run record (a JSON object)")
-    records: dict[tuple, dict[str, Any]] = {}
-    lines = 0
-    for line in folder.results():
-        if not isinstance(line, dict) or not line.get("task_id") or not line.get("condition"):
-            continue
-        lines += 1
-        key = (str(line.get("model") or "?"), str(line["condition"]), str(line["task_id"]),
-               int(line.get("epoch") or 0))
-        records.pop(key, None)  # keep file order of the latest line
-        records[key] = line
+        except RunFolderError as exc:  # not JSON, or not an object
+            raise NotARunFolder(str(exc)) from None
+    scan = folder.scan_results(check_trajectories=True)  # every line validated (pydantic)
+    records = {(k.model, k.condition, k.task_id, k.epoch): row  # file order of latest lines
+               for k, row in scan.latest.items()}
     info = RunInfo(
         path=path, name=str(record.get("name") or path.resolve().name), record=record,
-        lines=lines, torn_tail=_torn_tail(path / RESULTS), episodes=len(records),
-        infra_errors=sum(1 for r in records.values() if r.get("infra_error")))
+        lines=len(scan.rows), torn_tail=scan.torn_tail, episodes=len(records),
+        infra_errors=sum(1 for r in records.values() if is_infra_failure(r)),
+        invalid_lines=scan.invalid_lines, missing_trajectories=len(scan.missing))
     return info, records
 
 
-def _torn_tail(results: Path) -> bool:
-    try:
-        with open(results, "rb") as f:
-            f.seek(0, 2)
-            if f.tell() == 0:
-                return False
-            f.seek(-1, 2)
-            return f.read(1) != b"\n"
-    except OSError:
-        return False
+def invalid_line_warnings(runs: Sequence[RunInfo]) -> list[str]:
+    """One warning per run with result lines the report skipped (counted, with where)."""
+    return [f"{run.path / RESULTS}: {run.invalid_lines} invalid result line"
+            f"{'s' if run.invalid_lines != 1 else ''} skipped (not JSON, or not a valid "
+            "result: `cocobench run --out RUN --resume` names each and runs its episode again)"
+            for run in runs if run.invalid_lines]
 
 
 def _columns(items: list[tuple[tuple, tuple[int, dict[str, Any]]]]) -> Episodes:

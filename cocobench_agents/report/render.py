@@ -14,9 +14,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from cocobench_agents.report.load import INFRA_KIND, ReportData, RunInfo
+from cocobench_agents.report.load import ReportData, RunInfo
 from cocobench_agents.report.stats import NA, Bootstrap, Estimate
 from cocobench_agents.report.table import KINDS, Column, Table
+from cocobench_agents.report.tables import infra_warnings
 
 NA_TEXT = "NA"
 
@@ -64,6 +65,7 @@ def to_markdown(table: Table) -> str:
     rule = "| " + " | ".join(("-" * (w - 1) + ":") if r else "-" * w
                              for w, r in zip(widths, right)) + " |"
     parts = [f"# {table.title}", "", table.caption, ""]
+    parts += warning_lines(table.warnings)
     if table.rows:
         parts += [line(header), rule, *(line(r) for r in body)]
     else:
@@ -71,6 +73,11 @@ def to_markdown(table: Table) -> str:
     if table.notes:
         parts += ["", *(f"* {note}" for note in table.notes)]
     return "\n".join(parts) + "\n"
+
+
+def warning_lines(warnings: Sequence[str]) -> list[str]:
+    """Markdown lines that set each warning apart (a quoted, bold-labelled paragraph)."""
+    return [line for warning in warnings for line in (f"> **Warning:** {warning}", "")]
 
 
 def csv_header(table: Table) -> list[str]:
@@ -125,6 +132,10 @@ def _run_row(run: RunInfo) -> list[str]:
         notes.append("incomplete last line skipped")
     if run.superseded:
         notes.append(f"{run.superseded} retried lines superseded")
+    if run.invalid_lines:
+        notes.append(f"{run.invalid_lines} invalid lines skipped")
+    if run.missing_trajectories:
+        notes.append(f"{run.missing_trajectories} trajectory files missing")
     return [run.name, str(record.get("created_at") or ""), ", ".join(run.models),
             ", ".join(run.conditions), ", ".join(map(str, run.plan.get("sources") or [])),
             str(run.episodes), status, str(run.infra_errors), "; ".join(notes)]
@@ -140,12 +151,10 @@ def index_markdown(data: ReportData, tables: Sequence[Table], plots: Sequence[Pl
                    boot: Bootstrap, plot_note: str | None) -> str:
     """The report's front page: runs, what was counted, links to tables and plots."""
     ep = data.episodes
-    infra = int((ep.text["failure_kind"] == INFRA_KIND).sum())
     lines = ["# CoCoBench report", "",
              f"{len(ep)} episodes of {len(data.models)} model(s) under "
-             f"{len(data.conditions)} condition(s), from {len(data.runs)} run(s)"
-             + (f"; {infra} could not run (infra_error, counted as failures)" if infra else "")
-             + ".", ""]
+             f"{len(data.conditions)} condition(s), from {len(data.runs)} run(s).", ""]
+    lines += warning_lines([*data.warnings, *infra_warnings(data)])
     lines += [f"* Models: {', '.join(data.models) or '-'}",
               f"* Conditions: {', '.join(data.conditions) or '-'}"]
     if data.superseded_across_runs:

@@ -44,6 +44,7 @@ class Table:
     columns: list[Column]
     rows: list[list[Any]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  # shown above the table
 
     def records(self) -> list[dict[str, Any]]:
         """Rows as {column key: cell}."""

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cocobench_agents.harness.infra import retry_command
 from cocobench_agents.report.load import DIMENSIONS, ReportData
 from cocobench_agents.report.stats import Bootstrap, Estimate, mean_ci, paired_diff_ci
 from cocobench_agents.report.table import Column, Table
@@ -78,10 +79,21 @@ def main_results(ctx: Ctx) -> Table:
         "SR = task success rate (%); CS = mean construct score (0-1) over the episodes whose "
         "own-dimension score is scored (gated NA scores excluded; n shown). 95% bootstrap "
         "intervals in brackets. The paper's Table 1 is the C0_image rows.",
-        [*ID_COLUMNS, *sr_cs_columns()])
+        [*ID_COLUMNS, *sr_cs_columns()], warnings=infra_warnings(ctx.data))
     for model, condition, mask in ctx.cells():
         table.rows.append([model, condition, int(mask.sum()), *sr_cs_cells(ctx, mask)])
     return table
+
+
+def infra_warnings(data: ReportData) -> list[str]:
+    """What the report says above its main table about infrastructure failures."""
+    failed = int(data.episodes.col("infra_failure").sum()) if len(data.episodes) else 0
+    if not failed:
+        return []
+    retries = "; ".join(retry_command(r.path) for r in data.runs if r.infra_errors)
+    return [f"{failed} of {len(data.episodes)} episodes ended on an infrastructure error "
+            "(model backend error, timeout, unsupported input, or the harness), not on the "
+            f"model's choices; they count as failures in every rate. Re-run them: {retries}"]
 
 
 def paired_indices(ctx: Ctx, mask_a: np.ndarray, mask_b: np.ndarray, by: str

@@ -4,11 +4,19 @@ the model wrote is recorded as the model's own protocol outcome, never as a harn
 from __future__ import annotations
 
 import asyncio
+import json
 
 import pytest
 
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
+from cocobench_agents.harness import (
+    Condition,
+    RunFolder,
+    RunOptions,
+    execute_and_close,
+    plan_episodes,
+)
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.prompts import parse_message, parse_reply
 from tests.models.fake_openai import FakeOpenAI, ok
@@ -42,6 +50,26 @@ def test_a_5000_digit_id_is_the_models_invalid_id_not_a_crash() -> None:
         assert parsed.status == "invalid_action_id"
         assert parsed.raw_choice == digits and parsed.action_id is None
         assert parsed.error == "action id not in current menu"
+
+
+def test_a_huge_id_in_a_run_is_the_models_failure_not_an_infra_error(tmp_path) -> None:
+    """Before: `int()` raised outside the decision's error handling, so the episode became an
+    infrastructure error that `--retry-errors` would re-run."""
+    digits = "7" * 5_000
+    script = tmp_path / "replies.json"
+    script.write_text(json.dumps([f"REASON: all in\nACTION: {digits}"]), encoding="utf-8")
+    config = next(c for c in load_tasks("demo") if c.cell == "G_D1")
+    episodes = plan_episodes([config], [f"scripted:{script}"],
+                             [Condition("centralized", "blind")], 1, RunOptions())
+    folder = RunFolder(tmp_path / "run")
+    folder.create({"name": "huge-id"})
+    asyncio.run(execute_and_close(episodes, folder, ModelPool(ModelSettings()), jobs=1))
+    [result] = folder.results()
+    assert "infra_error" not in result
+    assert result["terminal_reason"] == "invalid_action_id"
+    document = json.loads((folder.path / result["trajectory"]).read_text(encoding="utf-8"))
+    [decision] = document["planner_decisions"]
+    assert decision["parsed_action_id"] == digits and decision["parsed_call"] is None
 
 
 def test_parsing_never_raises_on_odd_input() -> None:

@@ -118,3 +118,18 @@ def test_a_bare_resume_keeps_the_endpoint_and_transport(tmp_path, server):
     assert main(["run", "--out", str(out), "--resume"]) == 0
     assert server.count > 0  # the same local endpoint, not the provider's default
     assert all(body.get("temperature") == 0.3 for body in server.requests)
+
+
+def test_a_relative_suite_or_planner_given_again_is_the_same(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["prompts", "export", "cocobench-v1", "suite"]) == 0
+    planner = Path(__file__).resolve().parents[1] / "planners" / "user_planner.py"
+    (tmp_path / "mine.py").write_text(planner.read_text())
+    name = next(line.split("(")[0].removeprefix("def ").strip()
+                for line in planner.read_text().splitlines() if line.startswith("def build"))
+    argv = ["--model", "greedy", *DEMO, "--prompt-suite", "./suite",
+            "--planner", f"mine.py:{name}"]
+    assert main(["run", *argv, "--out", "run"]) == 0
+    forget_last_result(tmp_path / "run")
+    assert main(["run", *argv, "--out", "run", "--resume"]) == 0
+    assert len(results(tmp_path / "run")) == 2

@@ -78,6 +78,12 @@ def test_export_refuses_to_overwrite(capsys, tmp_path: Path, kind: str) -> None:
     assert kept.read_text() == "keep me"
 
 
+def test_export_into_an_unwritable_place(capsys, tmp_path: Path) -> None:
+    (tmp_path / "a-file").write_text("")
+    code, _, err = cocobench(capsys, "prompts", "export", DEFAULT_SUITE, tmp_path / "a-file" / "x")
+    assert code == 2 and err.startswith(f"cocobench: error: {tmp_path}/a-file/x: cannot write: ")
+
+
 def test_export_takes_a_shipped_name_only(capsys, tmp_path: Path) -> None:
     for name in ("cocobench-v9", f"{DEFAULT_SUITE}+no-hint"):
         code, _, err = cocobench(capsys, "prompts", "export", name, tmp_path / "x")
@@ -205,7 +211,7 @@ def test_resume_refuses_a_changed_or_missing_suite(capsys, tmp_path: Path) -> No
                    f"changed since the run was recorded (changed: leader.txt); restore it, "
                    f"or start a new run in another --out\n")
     code, _, err = cocobench(capsys, *RUN, "--prompt-suite", suite, "--out", out, "--resume")
-    assert code == 2 and "differs from the recorded run's" in err
+    assert code == 2 and "differs from the recorded run" in err and "prompt" in err
     leader.write_text(original)  # restored: the resume goes on (nothing left to run)
     code, _, err = cocobench(capsys, "run", "--out", out, "--resume")
     assert code == 0 and "2 episodes (2 already done)" in err
@@ -216,6 +222,21 @@ def test_resume_refuses_a_changed_or_missing_suite(capsys, tmp_path: Path) -> No
     assert code == 2 and err == (f"cocobench: error: prompt suite folder {suite.resolve()}: "
                                  f"no such folder\n")
     assert (out / "results.jsonl").read_text() == recorded  # nothing recorded is lost
+
+
+@pytest.mark.slow
+def test_a_relative_suite_path_resumes_from_another_directory(
+        capsys, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    edited_suite(capsys, Path("suite"))
+    assert cocobench(capsys, *RUN, "--prompt-suite", "suite+no-hint", "--out", "run")[0] == 0
+    spec = f"{tmp_path / 'suite'}+no-hint"
+    record = json.loads(Path("run/run.json").read_text())
+    assert record["prompt_suite"]["spec"] == record["cli_options"]["prompt_suite"] == spec
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    code, _, err = cocobench(capsys, "run", "--out", tmp_path / "run", "--resume")
+    assert code == 0 and "2 episodes (2 already done)" in err
 
 
 @pytest.mark.parametrize(("breakage", "message"), [

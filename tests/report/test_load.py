@@ -88,7 +88,8 @@ def test_infra_error_counts_as_a_failure_without_diagnostics(tmp_path: Path) -> 
     assert data.runs[0].infra_errors == 1
     build_report([run], tmp_path / "out", plots=False)
     index = (tmp_path / "out" / "index.md").read_text(encoding="utf-8")
-    assert "1 could not run (infra_error" in index
+    assert "1 of 29 episodes ended on an infrastructure error" in index
+    assert "--resume --retry-errors" in index
 
 
 def test_a_later_line_supersedes_an_earlier_one(tmp_path: Path) -> None:

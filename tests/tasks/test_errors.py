@@ -30,6 +30,7 @@ def minimal(task_id: str = "K_D3__FloorPlan1__seed0") -> dict[str, Any]:
             {"predicate": "sliced_by", "object": "apple", "agent": "agent_1"},
             {"predicate": "sliced_by", "object": "bread", "agent": "agent_1"},
         ],
+        "difficulty": {"step_budget": 10},
     }
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from benchmark_adapter.tasks import (
+    MissingTasksWarning,
     TaskConfig,
     TaskConfigError,
     available_suites,
@@ -42,6 +43,7 @@ def minimal(task_id: str = "K_D3__FloorPlan1__seed0", family: str = "K", dim: st
             "objects": {"apple": "Apple|1|2|3"},
         },
         "goal_predicates": [{"predicate": "sliced_by", "object": "apple", "agent": "agent_1"}],
+        "difficulty": {"step_budget": 10},
     }
 
 
@@ -80,7 +82,8 @@ def test_data_root_skips_subset_file() -> None:
 def test_subset_with_missing_skip_keeps_present_ids_in_subset_order() -> None:
     ids = json.loads(REP240.read_text())["task_ids"]
     present = [i for i in ids if (TASKS / f"{i}.json").is_file()]
-    tasks = load_tasks(REP240, missing="skip")
+    with pytest.warns(MissingTasksWarning, match=r"206 of 240 tasks not found.*skipped them"):
+        tasks = load_tasks(REP240, missing="skip")
     assert [t.task_id for t in tasks] == present
     assert len(tasks) == 34
 
@@ -145,7 +148,9 @@ def test_index_missing_config(tmp_path: Path) -> None:
     )
     with pytest.raises(TaskConfigError, match=r"1 of 2 tasks not found.*gone"):
         load_tasks(index)
-    assert [t.task_id for t in load_tasks(index, missing="skip")] == ["t1"]
+    with pytest.warns(MissingTasksWarning, match=r"1 of 2 tasks not found.*gone") as caught:
+        assert [t.task_id for t in load_tasks(index, missing="skip")] == ["t1"]
+    assert caught[0].filename == __file__  # points at the caller of load_tasks
 
 
 def test_subset_finds_configs_not_named_after_their_id(tmp_path: Path) -> None:

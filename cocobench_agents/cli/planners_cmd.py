@@ -1,0 +1,67 @@
+"""`cocobench planners`: every planner a run can use, and where it comes from."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import click
+
+from cocobench_agents.cli.tables import table
+from cocobench_agents.graphs.plugins import (
+    LoadedPlanner,
+    builtin_planners,
+    installed_planners,
+    user_planners,
+)
+
+HEADERS = ("name", "code", "models", "source", "description")
+
+
+def planner_record(planner: LoadedPlanner) -> dict[str, Any]:
+    """The listing record of one planner (a broken one: its error instead of a spec)."""
+    spec = planner.spec
+    record: dict[str, Any] = {"name": planner.name, **planner.origin.record()}
+    if spec is None:
+        return {**record, "error": planner.error}
+    return {**record, "code": spec.code, "models": _models(spec.uses_models, spec.decentralized),
+            "description": spec.description}
+
+
+@click.command("planners")
+@click.argument("refs", nargs=-1, metavar="[FILE.py:NAME|module:NAME]...")
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON list instead of a table.")
+@click.option("--check", is_flag=True,
+              help="Also run the pre-run check on every planner not built in: it compiles, "
+                   "and one demo episode with the greedy model ends with a terminal reason.")
+def planners_command(refs: tuple[str, ...], as_json: bool, check: bool) -> None:
+    """List the built-in planners, those installed packages register (entry point group
+    `cocobench.planners`) and any given as FILE.py:NAME or module:NAME. A package whose
+    planner fails to load is listed as broken, with the reason."""
+    planners = [*builtin_planners(), *installed_planners(), *user_planners(refs)]
+    if check:
+        from cocobench_agents.harness.planner_check import check_planners
+
+        check_planners(p.name for p in planners if p.spec is not None)
+    records = [planner_record(p) for p in planners]
+    if as_json:
+        click.echo(json.dumps(records, indent=2))
+        return
+    click.echo(table(HEADERS, [_row(r) for r in records]))
+    click.echo("Use one with --planner NAME (or FILE.py:NAME), or in --conditions as "
+               "CODE_image / CODE_blind.")
+
+
+def _row(record: dict[str, Any]) -> list[Any]:
+    where = record["kind"] + ": " + record["source"]
+    if record.get("distribution"):
+        where += f" ({record['distribution']})"
+    if "error" in record:
+        return [record["name"], None, None, where, f"BROKEN: {record['error']}"]
+    return [record["name"], record["code"], record["models"], where, record["description"]]
+
+
+def _models(uses_models: bool, decentralized: bool) -> str:
+    if not uses_models:
+        return "none"
+    return "one per agent" if decentralized else "one for the team"

@@ -1,0 +1,60 @@
+"""Which runs may share a report row: a (model, condition) row merges episodes of several
+runs only when those runs asked the model the same way and scored it the same way.
+
+Otherwise (say one run used temperature 0 and the other 0.7) the merged row would describe
+neither; the report refuses, or, when asked (``--arms``), labels each run's models apart so
+that every run is its own arm.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+#: `run.json` options that change the episodes of every model.
+RUN_OPTIONS = ("backend", "max_steps", "stable_ids")
+#: `run.json` model settings that change what a remote model is sent (or what is kept of
+#: its replies); built-in models ignore them.
+MODEL_SETTINGS = ("api_base", "transport", "temperature", "max_tokens", "grammar", "seed",
+                  "extra_params", "max_reply_chars")
+_BUILTINS = ("greedy", "random", "scripted", "replay", "oracle")
+
+
+def row_settings(record: Mapping[str, Any], model: str) -> dict[str, Any]:
+    """What a run's `run.json` says shapes the episodes of `model` (missing: None)."""
+    options = _mapping(record.get("options"))
+    settings = {name: options.get(name) for name in RUN_OPTIONS}
+    suite = record.get("prompt_suite")
+    suite = suite if isinstance(suite, Mapping) else {"spec": suite}
+    settings["prompt_suite"] = suite.get("spec")
+    if suite.get("content_hash"):  # older runs did not record it
+        settings["prompt_suite content"] = suite["content_hash"]
+    if model.partition(":")[0] not in _BUILTINS:
+        model_settings = _mapping(record.get("model_settings"))
+        settings.update({name: model_settings.get(name) for name in MODEL_SETTINGS})
+    return settings
+
+
+def difference(a: Mapping[str, Any], b: Mapping[str, Any]) -> str | None:
+    """The first setting two `row_settings` disagree on, as ``name (a vs b)``; None when
+    they agree. A setting only one run records is not compared (an older run)."""
+    for name, value in a.items():
+        if name in b and value != b[name]:
+            return f"{name} ({_show(value)} vs {_show(b[name])})"
+    return None
+
+
+def arm_label(model: str, run: str | Path) -> str:
+    """`model` as the arm of one run (``--arms``): labelled by the run folder as given."""
+    return f"{model} @{run}"
+
+
+def _mapping(value: Any) -> Mapping[str, Any]:
+    return value if isinstance(value, Mapping) else {}
+
+
+def _show(value: Any) -> str:
+    text = json.dumps(value, sort_keys=True)
+    return text if len(text) <= 60 else text[:57] + "..."

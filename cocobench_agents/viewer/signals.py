@@ -1,0 +1,209 @@
+"""The coordination views: a per-agent Gantt of steps coloured by the benchmark's step
+classification, and the construct's own signal over time.
+
+The signal reruns the benchmark's construct formula (`metrics.constructs`) on every prefix
+of the episode, without the evidence gate, so each event (a precedence violation, a
+collision, an overflow, a starved wait) is dated at the step where the formula first counts
+it. Nothing here scores: the numbers are the formula's own evidence.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from benchmark_adapter.metrics import constructs
+from benchmark_adapter.metrics.errors import TrajectoryError
+from benchmark_adapter.metrics.general import per_agent_actions
+from benchmark_adapter.metrics.steps import STEP_CATEGORIES, Step
+
+#: Evidence counters whose every increase is an event worth a marker, per dimension.
+EVENT_COUNTERS: dict[str, tuple[tuple[str, str], ...]] = {
+    "D2": (("violations", "precedence violation"),),
+    "D3": (("collisions", "collision"),),
+    "D4": (("occupancy_overflows", "overflow"), ("refused_put_overflows", "refused put"),
+           ("starved_waits", "starved wait"), ("affordance_failures", "misplacement"),
+           ("wait_steps", "wait")),
+}
+TITLES = {
+    "D1": "Load balance: each agent's steps against the reference makespan M*",
+    "D2": "Precedence: containers open/closed and precedence violations",
+    "D3": "Mutual exclusion: who holds the shared resource, and each collision",
+    "D4": "Producer-consumer: buffer occupancy, overflows and starved waits",
+}
+
+
+@dataclass(frozen=True)
+class GanttCell:
+    row: int
+    slot: int
+    category: str
+    ordinal: int
+    label: str
+
+
+@dataclass
+class Gantt:
+    """Steps on a grid: one row per agent, one column per round (or per step when the
+    planner has no rounds)."""
+
+    agents: list[str]
+    slots: int
+    by_round: bool
+    cells: list[GanttCell]
+    categories: Sequence[str] = STEP_CATEGORIES
+
+
+@dataclass(frozen=True)
+class Event:
+    ordinal: int  # the landed step (1-based)
+    kind: str
+    text: str
+
+
+@dataclass
+class Signal:
+    """A construct's signal over the landed steps: numeric series (with an optional
+    reference line), categorical tracks and dated events."""
+
+    dim: str
+    title: str
+    steps: int
+    series: list[tuple[str, list[float]]] = field(default_factory=list)
+    reference: tuple[float, str] | None = None
+    tracks: list[tuple[str, list[str]]] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
+    evidence: dict[str, Any] = field(default_factory=dict)
+    unavailable: str | None = None
+
+    @property
+    def y_max(self) -> float:
+        values = [v for _, vs in self.series for v in vs]
+        if self.reference:
+            values.append(self.reference[0])
+        return max([1.0, *values])
+
+
+def gantt(agents: Sequence[str], steps: Sequence[Step], categories: Sequence[str]) -> Gantt:
+    """The Gantt of an episode's landed steps (agents outside the config get a row too)."""
+    rows = list(dict.fromkeys([*agents, *(s.agent for s in steps)]))
+    by_round = bool(steps) and all(isinstance(s.round_index, int) for s in steps)
+    first = min((s.round_index for s in steps), default=0) if by_round else 0
+    cells = [GanttCell(rows.index(s.agent), (s.round_index - first) if by_round else i, cat,
+                       i + 1, _call(s))
+             for i, (s, cat) in enumerate(zip(steps, categories))]
+    slots = max((c.slot for c in cells), default=-1) + 1
+    return Gantt(rows, slots, by_round, cells)
+
+
+def construct_signal(traj: Mapping[str, Any], steps: Sequence[Step],
+                     categories: Sequence[str]) -> Signal:
+    """The signal of the episode's own coordination dimension."""
+    config = traj.get("task_config") or {}
+    dim = str(config.get("coordination_dim") or "")
+    signal = Signal(dim, TITLES.get(dim, f"{dim}: no signal view"), len(steps))
+    if dim not in TITLES:
+        signal.unavailable = f"no signal view for dimension {dim or '(none)'}"
+        return signal
+    try:
+        history = _evidence_history(dim, config, steps, categories)
+        signal.evidence = history[-1] if history else {}
+        _events(signal, dim, history)
+        _DRAW[dim](signal, config, traj.get("trajectory") or [], steps)
+    except TrajectoryError as exc:
+        signal.unavailable = f"the trajectory lacks what the signal needs: {exc}"
+    return signal
+
+
+def _evidence_history(dim: str, config: Mapping[str, Any], steps: Sequence[Step],
+                      categories: Sequence[str]) -> list[dict[str, Any]]:
+    """The formula's evidence after each landed step (empty while the mechanism has not
+    been exercised at all, where the formula is undefined)."""
+    sample, formula = constructs._DIMS[dim]  # the benchmark's own formula, ungated
+    constraints = config.get("task_constraints") or {}
+    history = []
+    for k in range(1, len(steps) + 1):
+        episode = constructs._Episode(config, constraints, list(steps[:k]), list(categories[:k]))
+        history.append(formula(episode)[1] if sample(episode) > 0 else {})
+    return history
+
+
+def _events(signal: Signal, dim: str, history: list[dict[str, Any]]) -> None:
+    previous: dict[str, Any] = {}
+    for ordinal, evidence in enumerate(history, start=1):
+        for counter, kind in EVENT_COUNTERS.get(dim, ()):
+            now, before = evidence.get(counter), previous.get(counter) or 0
+            if isinstance(now, (int, float)) and now > before:
+                signal.events.append(Event(ordinal, kind, f"{kind} #{int(now)}"))
+        if evidence:
+            previous = evidence
+
+
+def _draw_d1(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
+             steps: Sequence[Step]) -> None:
+    agents = [str(a.get("id")) for a in config.get("agents") or [] if isinstance(a, Mapping)]
+    loads = [per_agent_actions(list(steps[:k])) for k in range(1, len(steps) + 1)]
+    for agent in dict.fromkeys([*agents, *(s.agent for s in steps)]):
+        signal.series.append((agent, [float(load.get(agent, 0)) for load in loads]))
+    reference = signal.evidence.get("reference_makespan")
+    if isinstance(reference, (int, float)):
+        signal.reference = (float(reference), f"M* = {reference:g}")
+
+
+def _draw_d2(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
+             steps: Sequence[Step]) -> None:
+    for container in constructs._container_ids(config):
+        signal.tracks.append((_short(container), [_open_state(s, container) for s in steps]))
+
+
+def _draw_d3(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
+             steps: Sequence[Step]) -> None:
+    mode, keys = constructs._d3_mode(config.get("task_constraints") or {})
+    if mode == "shared_tool":
+        for resource in sorted(keys):
+            signal.tracks.append((f"holder of {_short(resource)}",
+                                  [_holder(items[s.index], resource) for s in steps]))
+    elif mode == "station":
+        signal.tracks.append(("station used by",
+                              [s.agent if s.skill in keys else "" for s in steps]))
+
+
+def _draw_d4(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
+             steps: Sequence[Step]) -> None:
+    buffers = constructs._buffers(config.get("task_constraints") or {})
+    if not buffers:
+        return  # no declared buffer: the events (misplacements, waits) are the signal
+    ids = {str(b["objectId"]) for b in buffers}
+    signal.series.append(("buffer occupancy",
+                          [float(constructs._occupancy(s, ids)) for s in steps]))
+    capacity = max(constructs._capacity(b) for b in buffers)
+    signal.reference = (float(capacity), f"capacity {capacity:g}")
+
+
+_DRAW = {"D1": _draw_d1, "D2": _draw_d2, "D3": _draw_d3, "D4": _draw_d4}
+
+
+def _open_state(step: Step, object_id: str) -> str:
+    for obj in (step.objects or {}).values():
+        if isinstance(obj, Mapping) and obj.get("objectId") == object_id:
+            return "open" if obj.get("isOpen") else "closed"
+    return ""
+
+
+def _holder(item: Mapping[str, Any], object_id: str) -> str:
+    state = item.get("state") if isinstance(item, Mapping) else None
+    for agent in (state or {}).get("agents") or []:
+        if isinstance(agent, Mapping) and object_id in (agent.get("inventory") or []):
+            return str(agent.get("agent") or "")
+    return ""
+
+
+def _short(object_id: str) -> str:
+    """`Fridge|+00.50|+00.00|+03.25` -> `Fridge`."""
+    return object_id.split("|", 1)[0]
+
+
+def _call(step: Step) -> str:
+    target = step.target_id
+    return f"{step.skill}({_short(target)})" if target else step.skill

@@ -1,0 +1,173 @@
+"""Run folders read live: each look reads only the bytes appended to `results.jsonl` since
+the previous one, so a page reflects a running run without a restart.
+
+An episode is (model, condition, task_id, epoch); a later line supersedes an earlier one
+(a retry). A line that is not a valid result (`result_rows.row_error`) is skipped and
+counted, and a torn last line (a run in mid-write) waits for its end.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from cocobench_agents.harness.result_rows import row_error
+from cocobench_agents.harness.store import (
+    RESULTS,
+    RUN_FILE,
+    EpisodeKey,
+    RunFolder,
+    RunFolderError,
+    result_key,
+)
+from cocobench_agents.viewer.errors import ViewerError
+
+SHOWN_PROBLEMS = 5  # junk lines named one by one on the page; the rest are counted
+
+
+@dataclass
+class Episode:
+    """One episode's latest result line, where it lives and the order it arrived in."""
+
+    run: int  # index of its run among the viewer's runs
+    key: EpisodeKey
+    record: dict[str, Any]
+    seq: int  # increases with every accepted line of any run (what a live page asks after)
+
+    @property
+    def path(self) -> str:
+        """Its page's path below the viewer's root (the same live and exported)."""
+        return f"episode/{self.run}/{self.key.folder().removeprefix('episodes/')}.html"
+
+
+@dataclass
+class RunSource:
+    """One run folder, read incrementally."""
+
+    index: int
+    path: Path
+    record: dict[str, Any] = field(default_factory=dict)
+    episodes: dict[EpisodeKey, Episode] = field(default_factory=dict)
+    lines: int = 0  # valid lines read
+    junk: int = 0  # invalid lines skipped
+    problems: list[str] = field(default_factory=list)
+    _offset: int = 0
+
+    @property
+    def name(self) -> str:
+        return str(self.record.get("name") or self.path.resolve().name)
+
+    @property
+    def folder(self) -> RunFolder:
+        return RunFolder(self.path)
+
+    def read_new(self, next_seq: int) -> int:
+        """Read the complete lines appended since the last call; return the next sequence
+        number."""
+        try:
+            with open(self.path / RESULTS, "rb") as f:
+                f.seek(self._offset)
+                data = f.read()
+        except FileNotFoundError:
+            return next_seq
+        end = data.rfind(b"\n")
+        if end < 0:
+            return next_seq  # nothing complete yet (a torn or empty tail)
+        line_no = self.lines + self.junk
+        for raw in data[: end + 1].splitlines():
+            line_no += 1
+            next_seq = self._accept(raw, line_no, next_seq)
+        self._offset += end + 1
+        return next_seq
+
+    def _accept(self, raw: bytes, line_no: int, seq: int) -> int:
+        if not raw.strip():
+            return seq
+        try:
+            data: Any = json.loads(raw)
+            error = row_error(data)
+        except (ValueError, RecursionError) as exc:
+            error = f"not JSON ({type(exc).__name__})"
+        if error is not None:
+            self.junk += 1
+            if len(self.problems) < SHOWN_PROBLEMS:
+                self.problems.append(f"{self.path / RESULTS} line {line_no}: {error}")
+            return seq
+        self.lines += 1
+        key = result_key(data)
+        self.episodes.pop(key, None)  # the latest line of an episode goes last
+        self.episodes[key] = Episode(self.index, key, data, seq)
+        return seq + 1
+
+    def trajectory(self, episode: Episode) -> dict[str, Any] | None:
+        """The episode's trajectory document (None when it is missing or unreadable)."""
+        relative = episode.record.get("trajectory") or f"{episode.key.folder()}/trajectory.json"
+        try:
+            with open(self.folder.inside(str(relative)), encoding="utf-8") as f:
+                document = json.load(f)
+        except (OSError, ValueError, RunFolderError):
+            return None
+        return document if isinstance(document, dict) else None
+
+    def prompts(self, episode: Episode) -> dict[str, str]:
+        """The episode's prompts by hash (empty when the run did not keep them)."""
+        try:
+            prompts = self.folder.prompts(episode.key)
+        except (OSError, ValueError):
+            return {}
+        return prompts if isinstance(prompts, dict) else {}
+
+
+class Catalog:
+    """The viewer's run folders: every request looks for new result lines first."""
+
+    def __init__(self, paths: list[str | Path]) -> None:
+        if not paths:
+            raise ViewerError("no run folder given")
+        self.runs = [open_run(index, Path(p)) for index, p in enumerate(paths)]
+        self._lock = threading.Lock()
+        self._seq = 0
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Read what the runs appended since the last look (only the new bytes)."""
+        with self._lock:
+            for run in self.runs:
+                self._seq = run.read_new(self._seq)
+
+    @property
+    def seq(self) -> int:
+        return self._seq
+
+    def episodes(self) -> list[Episode]:
+        """Every run's episodes, in arrival order."""
+        return sorted((e for run in self.runs for e in run.episodes.values()),
+                      key=lambda e: e.seq)
+
+    def by_path(self) -> dict[str, Episode]:
+        return {e.path: e for e in self.episodes()}
+
+    def find(self, path: str) -> Episode | None:
+        return self.by_path().get(path)
+
+    @property
+    def junk(self) -> int:
+        return sum(run.junk for run in self.runs)
+
+
+def open_run(index: int, path: Path) -> RunSource:
+    """A run folder with its `run.json` read; `ViewerError` naming the path if it is not
+    one."""
+    if not path.is_dir():
+        raise ViewerError(f"{path}: no such run folder")
+    if not (path / RUN_FILE).is_file():
+        raise ViewerError(f"{path}: not a run folder (no {RUN_FILE}; make one with "
+                          "`cocobench run --out DIR`)")
+    try:
+        record = RunFolder(path).run_record()
+    except (OSError, RunFolderError) as exc:
+        raise ViewerError(str(exc)) from None
+    return RunSource(index=index, path=path, record=record)

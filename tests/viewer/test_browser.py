@@ -1,0 +1,94 @@
+"""End to end in a real headless chromium: the live viewer and an export, as a person sees
+them. Screenshots are kept under $COCOBENCH_VIEWER_SCREENSHOTS (else the test's tmp dir)."""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from cocobench_agents.cli import main
+from cocobench_agents.viewer.pages import Pages
+from cocobench_agents.viewer.server import ViewerServer
+from cocobench_agents.viewer.source import Catalog
+
+from .browser import chromium_page, why_unavailable
+
+pytestmark = [pytest.mark.slow,
+              pytest.mark.skipif(why_unavailable() is not None, reason=str(why_unavailable()))]
+
+
+@pytest.fixture
+def shots(tmp_path: Path) -> Path:
+    folder = Path(os.environ.get("COCOBENCH_VIEWER_SCREENSHOTS") or tmp_path / "screenshots")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+@pytest.fixture
+def live(run_copy: Path) -> Iterator[str]:
+    server = ViewerServer(Pages.create(Catalog([run_copy]), live=True), 0)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    yield server.url
+    server.shutdown()
+    server.server_close()
+
+
+def results(run: Path) -> list[dict]:
+    return [json.loads(line) for line in (run / "results.jsonl").read_text().splitlines()]
+
+
+def check_site(page: Any, base: str, run: Path, shots: Path, tag: str) -> None:
+    records = results(run)
+    page.goto(base + "index.html")
+    rows = page.locator("table.episodes tbody tr")
+    assert rows.count() == len(records)
+    listed = set(rows.evaluate_all("rs => rs.map(r => r.dataset.key)"))
+    assert listed == {f"0/episodes/greedy/{r['condition']}/{r['task_id']}" for r in records}
+    page.screenshot(path=shots / f"{tag}-runs.png", full_page=True)
+    page.select_option('select[data-filter="dim"]', "D4")  # the filters work in the page
+    assert page.locator("table.episodes tbody tr:visible").count() == 2
+    page.select_option('select[data-filter="dim"]', "")
+    page.locator('th[data-key="steps"]').click()  # sorting numerically
+    steps = [int(t) for t in page.locator("tbody tr td:nth-child(15)").all_inner_texts()]
+    assert steps == sorted(steps)
+
+    record = next(r for r in records if r["condition"] == "D1_blind" and r["dim"] == "D2")
+    page.click(f'a[href$="greedy/D1_blind/{record["task_id"]}.html"]')  # the row's link
+    assert page.locator("li.entry.landed").count() == record["num_steps"]
+    traj = json.loads((run / record["trajectory"]).read_text())
+    replies = page.locator("div.reply pre").all_inner_texts()
+    assert replies == [d["raw_output"] for d in traj["planner_decisions"]]
+    assert page.locator("svg.gantt rect").count() == record["num_steps"]
+    page.screenshot(path=shots / f"{tag}-episode.png", full_page=False)
+    page.locator("#expand-prompts").click()
+    assert page.locator("details.prompt[open]").count() == len(traj["planner_decisions"])
+
+    page.goto(base + f"compare/{record['task_id']}.html")
+    assert page.locator("thead th:visible").count() == 3  # the step column and two episodes
+    page.screenshot(path=shots / f"{tag}-compare.png", full_page=False)
+
+
+def test_live_viewer_in_chromium(live: str, run_copy: Path, shots: Path) -> None:
+    with chromium_page() as page:
+        check_site(page, live, run_copy, shots, "live")
+        page.goto(live)
+        line = results(run_copy)[0] | {"epoch": 2, "terminal_reason": "appended-live"}
+        with open(run_copy / "results.jsonl", "a") as f:
+            f.write(json.dumps(line) + "\n")
+        # the open page picks the new episode up by itself (it polls every 2 s)
+        page.wait_for_selector("td:has-text('appended-live')", timeout=15_000)
+        assert page.locator("table.episodes tbody tr").count() == 9
+        assert page.locator("#episode-count").inner_text() == "9"
+
+
+def test_export_in_chromium(fixed_run: Path, tmp_path: Path, shots: Path) -> None:
+    out = tmp_path / "site"
+    assert main(["view", str(fixed_run), "--export", str(out)]) == 0
+    with chromium_page() as page:
+        check_site(page, out.as_uri() + "/", fixed_run, shots, "export")
