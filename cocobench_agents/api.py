@@ -12,7 +12,7 @@ from typing import Any
 import click
 
 #: `run_options` that `evaluate` sets from its own arguments.
-_OWN = frozenset({"tasks", "suite", "models", "conditions", "planner", "planners",
+_OWN = frozenset({"tasks", "suite", "models", "conditions", "planner", "planners", "obs_mode",
                   "prompt_suite", "prompt_suites", "out"})
 
 
@@ -97,7 +97,14 @@ def run_arguments(source: Any, *, models: Any, out: Any, conditions: Any, planne
         argv += ["--suite", sources[0]]
     for path in sources if len(sources) > 1 else []:
         argv += ["--task", path]
-    argv += ["--conditions", ",".join(_conditions(conditions, planners))]
+    names = [c for part in _listed(conditions) for c in part.split(",") if c]
+    if planners:  # planner arms: each planner under the observation modes of `conditions`
+        for planner in _listed(planners):
+            argv += ["--planner", planner]
+        for mode in dict.fromkeys(c.rpartition("_")[2] for c in names):
+            argv += ["--obs", mode]
+    else:
+        argv += ["--conditions", ",".join(names)]
     for suite in _listed(prompt_suites):
         argv += ["--prompt-suite", suite]
     for name, value in options.items():
@@ -143,14 +150,6 @@ def _listed(value: Any) -> list[str]:
     if isinstance(value, (str, Path)):
         return [str(value)]
     return [str(v) for v in value]
-
-
-def _conditions(conditions: Any, planners: Any) -> list[str]:
-    names = [c for part in _listed(conditions) for c in part.split(",") if c]
-    if not planners:
-        return names
-    modes = list(dict.fromkeys(c.rpartition("_")[2] for c in names)) or ["image"]
-    return [f"{planner}_{mode}" for planner in _listed(planners) for mode in modes]
 
 
 def _option(param: click.Option, value: Any) -> list[str]:

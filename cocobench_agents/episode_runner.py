@@ -13,6 +13,7 @@ from benchmark_adapter.metrics import EpisodeResult
 from benchmark_adapter.oracles import oracle_plan
 from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks import TaskConfig
+from benchmark_adapter.tasks.checks import MAX_STEP_BUDGET
 from cocobench_agents.graphs import PlannerContext, compiled_graph, planner_spec
 from cocobench_agents.models.protocol import ModelClient
 from cocobench_agents.models.retry import RetryPolicy
@@ -43,9 +44,11 @@ class EpisodeSpec:
         return self.episode_key or self.config.task_id
 
     @property
-    def budget(self) -> int | None:
-        """Landed steps allowed: `max_steps` if given, else the config's step budget."""
-        return self.max_steps if self.max_steps else self.config.budget
+    def budget(self) -> int:
+        """Landed steps allowed: `max_steps` if given, else the config's step budget; a
+        config built in Python without one gets the largest budget a loaded config may have
+        (the episode then ends on the budget, never on LangGraph's recursion limit)."""
+        return self.max_steps or self.config.budget or MAX_STEP_BUDGET
 
     def model_for(self, agent: str | None) -> str:
         """The model string deciding for `agent` (None: the team's model)."""
@@ -100,7 +103,7 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
         oracle_plan=None if planner.uses_models else oracle_plan(spec.config),
     )
     tools.start()
-    steps = spec.budget or 1000
+    steps = spec.budget
     try:
         await _invoke(spec, context, steps)
     finally:

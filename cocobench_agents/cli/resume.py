@@ -26,9 +26,12 @@ SHAPING = frozenset({
     "extra_json",
 })
 #: What belongs to one invocation only.
-NOT_RECORDED = frozenset({"out", "resume", "retry_errors"})
+NOT_RECORDED = frozenset({"out", "resume", "retry_errors", "no_preflight"})
 #: Options naming files or folders: recorded absolute, so a resume works from anywhere.
 PATHS = frozenset({"tasks", "suite", "cache_dir"})
+#: Repeatable options that once took one value: one value is recorded as a string (as those
+#: versions did, so their run folders resume), several as a list (the arms of an ablation).
+ONE_OR_MORE = frozenset({"planner", "obs_mode", "prompt_suite"})
 
 
 def recorded_options(kw: dict[str, Any]) -> dict[str, Any]:
@@ -45,6 +48,8 @@ def _recordable(name: str, value: Any) -> Any:
         value = _absolute(value)
     elif name in REFERENCES:
         value = _each(value, REFERENCES[name])
+    if name in ONE_OR_MORE and isinstance(value, list) and len(value) == 1:
+        value = value[0]
     return _redacted(name, value)
 
 
@@ -109,6 +114,8 @@ def _json(value: Any) -> Any:
 
 def _python(current: Any, value: Any) -> Any:
     """A recorded JSON value in the shape click gives (tuples for multiple options)."""
+    if isinstance(current, tuple) and isinstance(value, str):
+        return (value,)  # a repeatable option's one value (`ONE_OR_MORE`)
     return tuple(value) if isinstance(current, tuple) and isinstance(value, list) else value
 
 

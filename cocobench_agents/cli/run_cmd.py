@@ -41,11 +41,17 @@ from cocobench_agents.harness import (
 )
 from cocobench_agents.harness.infra import count_infra_failures, retry_command
 from cocobench_agents.harness.limits import SpendLimit
+from cocobench_agents.harness.plan import planner_conditions, suite_arms
 from cocobench_agents.harness.planner_check import check_planners
 from cocobench_agents.harness.store import RunFolderWriteError
-from cocobench_agents.harness.summary import HEADERS, latest, summary_rows
+from cocobench_agents.harness.summary import latest, summary_table
 from cocobench_agents.models import ModelPool
-from cocobench_agents.prompts import DEFAULT_SUITE, check_unchanged, load_prompt_suite
+from cocobench_agents.prompts import (
+    DEFAULT_SUITE,
+    PromptSuite,
+    check_unchanged,
+    load_prompt_suite,
+)
 
 DEFAULT_TASKS = "cocobench-240"
 BASELINE_MODELS = ("greedy", "random")
@@ -61,12 +67,14 @@ LEGEND = (
               help="A task config file or folder (repeatable).")
 @click.option("--suite", metavar="SUITE|PATH",
               help=f"A suite name or path (default: {DEFAULT_TASKS}).")
-@click.option("--planner", default="centralized", show_default=True,
+@click.option("--planner", multiple=True, default=["centralized"], show_default=True,
               metavar="NAME|FILE.py:NAME|module:NAME",
               help="centralized, decentralized, decentralized-broadcast, leader-worker, "
-                   "oracle, an installed planner (`cocobench planners`) or your own.")
-@click.option("--obs", "obs_mode", type=click.Choice(["image", "blind"]), default="image",
-              show_default=True, help="Observation mode (with --planner).")
+                   "oracle, an installed planner (`cocobench planners`) or your own. "
+                   "Repeatable: each planner is an arm (its condition, under --obs).")
+@click.option("--obs", "obs_mode", type=click.Choice(["image", "blind"]), multiple=True,
+              default=["image"], show_default=True,
+              help="Observation mode (with --planner; repeatable: every planner under each).")
 @click.option("--conditions", metavar="LIST",
               help="Instead of --planner/--obs: all, image, blind, or e.g. C0_image,D1_blind.")
 @click.option("--model", "models", multiple=True, metavar="M",
@@ -74,9 +82,11 @@ LEGEND = (
                    "scripted:PATH, replay:PATH). Repeatable.")
 @click.option("--agent-model", "agent_models", multiple=True, metavar="AGENT=M",
               help="A different model for one agent of a decentralized team (repeatable).")
-@click.option("--prompt-suite", default=DEFAULT_SUITE, show_default=True, metavar="NAME|PATH",
+@click.option("--prompt-suite", multiple=True, default=[DEFAULT_SUITE], show_default=True,
+              metavar="NAME|PATH",
               help="Prompt suite: a shipped name or a suite folder (see `cocobench prompts`), "
-                   "with ablations joined by '+': cocobench-v1+no-hint.")
+                   "with ablations joined by '+': cocobench-v1+no-hint. Repeatable: each "
+                   "suite is an arm, crossed with models and conditions.")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False),
               help="Run folder.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=8, show_default=True,
@@ -254,15 +264,18 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
     if record is not None and "cli_options" not in record and not (
             kw["tasks"] or kw["suite"] or kw["models"]):
         kw = {**kw, **record["request"]}  # a folder of an older version: its recorded plan
+    planners = [] if kw["conditions"] else _listed(kw["planner"])
     conditions = (parse_conditions(kw["conditions"]) if kw["conditions"]
-                  else [Condition(planner_spec(kw["planner"]).name, kw["obs_mode"])])
+                  else planner_conditions(planners, _listed(kw["obs_mode"])))
+    # several --planner: each is an arm (its conditions), paired in the report
+    planner_arms = [c.name for c in conditions] if len(planners) > 1 else []
     needs_model = any(planner_spec(c.planner).uses_models for c in conditions)
     models = list(kw["models"]) or ([] if needs_model else ["oracle"])
     if kw.get("baselines"):
         models, conditions = with_baselines(models, conditions)
     if needs_model and not models:
         raise click.UsageError("--model is required (e.g. --model greedy, or a LiteLLM model)")
-    prompt_suite = load_prompt_suite(kw["prompt_suite"])
+    suites = [load_prompt_suite(spec) for spec in _listed(kw["prompt_suite"])]
     sources = list(kw["tasks"]) or [kw["suite"] or DEFAULT_TASKS]
     tasks = [t for source in sources for t in load_source(source, kw["missing"])]
     tasks = select_tasks(tasks, kw["eval_set"], only_cell=kw["only_cell"],
@@ -272,16 +285,33 @@ def _request(kw: dict[str, Any], record: dict[str, Any] | None) -> dict[str, Any
     request = {
         "sources": sources, "tasks": tasks, "task_ids": [t.task_id for t in tasks],
         "models": models, "agent_models": agent_models,
-        "conditions": conditions, "epochs": kw["epochs"],
-        "options": RunOptions(backend=kw["backend"], prompt_suite=prompt_suite.spec,
-                              max_steps=kw["max_steps"], stable_ids=kw["stable_ids"],
-                              agent_models=agent_models),
+        "conditions": conditions, "planner_arms": planner_arms, "epochs": kw["epochs"],
+        "options": RunOptions(backend=kw["backend"], prompt_suite=suites[0].spec,
+                              arms=suite_arms(suites), max_steps=kw["max_steps"],
+                              stable_ids=kw["stable_ids"], agent_models=agent_models),
     }
     if record is not None:
         check_planners_unchanged([c.planner for c in conditions], record.get("planners") or {})
         _same_as_recorded(request, record)
-        check_unchanged(prompt_suite, record.get("prompt_suite") or {})
+        _check_suites_unchanged(suites, request["options"].arms, record)
     return request
+
+
+def _listed(value: str | tuple[str, ...] | list[str]) -> list[str]:
+    """A repeatable option's values (a string: one, as recorded by older versions)."""
+    return [value] if isinstance(value, str) else list(value)
+
+
+def _check_suites_unchanged(suites: list[PromptSuite], arms: dict[str, str],
+                            record: dict[str, Any]) -> None:
+    """Refuse a resumed run's prompt suite whose files changed since it was recorded."""
+    if not arms:
+        check_unchanged(suites[0], record.get("prompt_suite") or {})
+        return
+    recorded = {r.get("arm"): r for r in record.get("prompt_suites") or []
+                if isinstance(r, dict)}
+    for suite in suites:  # the arms themselves are checked with the plan
+        check_unchanged(suite, recorded.get(suite.label) or {})
 
 
 def with_baselines(models: list[str], conditions: list[Condition]
@@ -309,6 +339,9 @@ def _same_as_recorded(request: dict[str, Any], record: dict[str, Any]) -> None:
     current = {"task_ids": request["task_ids"], "models": request["models"],
                "conditions": [c.name for c in request["conditions"]],
                "epochs": request["epochs"]}
+    arms = list(request["options"].arms)
+    if arms or "arms" in recorded:
+        current["arms"] = arms
     for key, value in current.items():
         if recorded.get(key) != value:
             raise click.UsageError(
@@ -329,7 +362,7 @@ def _check_models(pool: ModelPool, models: list[str], agent_models: dict[str, st
 
 
 def _summary(folder: RunFolder) -> None:
-    rows = summary_rows(folder.results())
-    click.echo(table(HEADERS, rows, caption=LEGEND))
+    headers, rows = summary_table(folder.results())
+    click.echo(table(headers, rows, caption=LEGEND))
     click.echo(f"results: {folder.results_path}  (cocobench report "
                f"{folder.path} --out DIR for the paper's tables)")

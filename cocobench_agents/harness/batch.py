@@ -84,7 +84,7 @@ async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactor
     result = result.model_copy(update={
         "condition": key.condition, "epoch": key.epoch, "trajectory": relative,
         "elapsed_s": round(time.perf_counter() - started, 3)})
-    return {**result.model_dump(mode="json"), "model": key.model}
+    return {**result.model_dump(mode="json"), **key.as_dict()}
 
 
 def infra_error_record(planned: PlannedEpisode, error: str, elapsed: float) -> dict[str, Any]:

@@ -1,14 +1,17 @@
-"""What a run consists of: models × conditions × instances × epochs, in a fixed order."""
+"""What a run consists of: models × conditions × prompt-suite arms × instances × epochs,
+in a fixed order."""
 
 from __future__ import annotations
 
+from collections import Counter
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 from benchmark_adapter.tasks import TaskConfig
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import PLANNERS, find_planner, planner_spec
-from cocobench_agents.harness.store import EpisodeKey
-from cocobench_agents.prompts import DEFAULT_SUITE
+from cocobench_agents.harness.store import EpisodeKey, model_slug
+from cocobench_agents.prompts import DEFAULT_SUITE, PromptSuite
 
 OBS_MODES = ("image", "blind")
 PAPER_CODES = ("C0", "D0", "D1")  # the paper's architectures, as in run_eval.sh
@@ -58,6 +61,35 @@ def parse_conditions(text: str) -> list[Condition]:
     return out
 
 
+def planner_conditions(planners: Iterable[str], obs_modes: Iterable[str]) -> list[Condition]:
+    """`--planner A --planner B --obs image`: each planner is an arm, and a planner's arm is
+    its condition under each observation mode (`A_image`, `B_image`)."""
+    modes = list(dict.fromkeys(obs_modes))
+    out = [Condition(planner_spec(p).name, obs) for p in dict.fromkeys(planners)
+           for obs in modes]
+    out = list(dict.fromkeys(out))  # two spellings of one planner are one arm
+    _check_distinct(out)
+    return out
+
+
+def suite_arms(suites: Sequence[PromptSuite]) -> dict[str, str]:
+    """The prompt-suite arms of a run (arm label → suite spec, in the order given): none for
+    a single suite, whose run keeps the folders and result lines of a run without arms."""
+    unique = list({s.spec: s for s in suites}.values())
+    if len(unique) < 2:
+        return {}
+    arms: dict[str, str] = {}
+    folders: dict[str, str] = {}
+    for suite in unique:
+        clash = arms.get(suite.label) or folders.get(model_slug(suite.label))
+        if clash is not None:
+            raise PlanError(f"prompt suites {clash} and {suite.spec} would share the arm "
+                            f"{suite.label!r} (its run folders and report rows): rename one "
+                            "of the suite folders")
+        arms[suite.label] = folders[model_slug(suite.label)] = suite.spec
+    return arms
+
+
 def _check_distinct(conditions: list[Condition]) -> None:
     """Two planners sharing a condition code would share run folders and report rows."""
     seen: dict[str, str] = {}
@@ -73,7 +105,10 @@ class RunOptions:
     """Episode options shared by the whole run."""
 
     backend: str = "embedded"
-    prompt_suite: str = DEFAULT_SUITE
+    prompt_suite: str = DEFAULT_SUITE  # the first arm's suite, when there are arms
+    #: Prompt-suite arms (label → suite spec), crossed with models and conditions; empty for
+    #: a run of one suite (`suite_arms`).
+    arms: dict[str, str] = field(default_factory=dict)
     max_steps: int | None = None
     stable_ids: bool = False
     agent_models: dict[str, str] = field(default_factory=dict)  # heterogeneous teams
@@ -89,27 +124,48 @@ class PlannedEpisode:
 
 def plan_episodes(tasks: list[TaskConfig], models: list[str], conditions: list[Condition],
                   epochs: int, options: RunOptions) -> list[PlannedEpisode]:
-    """Every model × condition × instance × epoch, in that nesting order."""
+    """Every model × condition × prompt-suite arm × instance × epoch, in that nesting
+    order."""
+    _check_distinct_folders(tasks, models)
+    arms = options.arms or {"": options.prompt_suite}
     out, seen = [], set()
     for model in models:
         for cond in conditions:
-            for config in tasks:
-                for epoch in range(epochs):
-                    key = EpisodeKey(_model_label(model, cond), cond.name, config.task_id, epoch)
-                    if key not in seen:  # the oracle needs no model: plan it once
-                        seen.add(key)
-                        out.append(PlannedEpisode(key, _spec(key, config, model, cond,
-                                                             options)))
+            for arm, suite in arms.items():
+                for config in tasks:
+                    for epoch in range(epochs):
+                        key = EpisodeKey(_model_label(model, cond), cond.name, config.task_id,
+                                         epoch, arm)
+                        if key not in seen:  # the oracle needs no model: plan it once
+                            seen.add(key)
+                            out.append(PlannedEpisode(key, _spec(key, config, model, cond,
+                                                                 suite, options)))
     return out
 
 
-def _spec(key: EpisodeKey, config: TaskConfig, model: str, cond: Condition,
+def _check_distinct_folders(tasks: list[TaskConfig], models: list[str]) -> None:
+    """Two instances with one id, or two models with one folder name, would share episodes'
+    folders and result keys: refuse them."""
+    ids = Counter(config.task_id for config in tasks)
+    twice = sorted(task_id for task_id, n in ids.items() if n > 1)
+    if twice:
+        raise PlanError(f"task id {twice[0]!r} is given {ids[twice[0]]} times (by several "
+                        "--task sources?): each instance must have its own id")
+    slugs: dict[str, str] = {}
+    for model in dict.fromkeys(models):
+        other = slugs.setdefault(model_slug(model), model)
+        if other != model:
+            raise PlanError(f"models {other!r} and {model!r} would share the episode folder "
+                            f"{model_slug(model)!r}: run them into separate --out folders")
+
+
+def _spec(key: EpisodeKey, config: TaskConfig, model: str, cond: Condition, suite: str,
           options: RunOptions) -> EpisodeSpec:
     models = {DEFAULT_MODEL_KEY: model}
     if planner_spec(cond.planner).decentralized:
         models.update(options.agent_models)
     return EpisodeSpec(config=config, planner=cond.planner, models=models,
-                       obs_mode=cond.obs_mode, prompt_suite=options.prompt_suite,
+                       obs_mode=cond.obs_mode, prompt_suite=suite,
                        backend=options.backend, max_steps=options.max_steps,
                        stable_ids=options.stable_ids, sample_index=key.epoch,
                        episode_key=key.folder().removeprefix("episodes/"))

@@ -91,7 +91,8 @@ def _bar(stream: TextIO, total: int, done: int) -> RichProgress:
 
 def episode_line(record: dict[str, Any]) -> str:
     """The one-line summary of an episode."""
-    head = f"{record.get('model')} {record.get('condition')} {record.get('task_id')}"
+    arm = f" {record['arm']}" if record.get("arm") else ""
+    head = f"{record.get('model')} {record.get('condition')}{arm} {record.get('task_id')}"
     if record.get("epoch"):
         head += f" e{record['epoch']}"
     if record.get("infra_error"):

@@ -12,7 +12,7 @@ from typing import Any
 from cocobench_agents import __version__
 from cocobench_agents.graphs.plugins import planners_record
 from cocobench_agents.harness.infra import is_infra_failure
-from cocobench_agents.harness.plan import PlannedEpisode
+from cocobench_agents.harness.plan import PlannedEpisode, RunOptions
 from cocobench_agents.harness.store import RunFolder
 from cocobench_agents.models import ModelSettings, is_builtin, redact
 from cocobench_agents.prompts import load_prompt_suite
@@ -24,18 +24,20 @@ def run_record(out: str, request: dict[str, Any], settings: ModelSettings,
                argv: Sequence[str]) -> dict[str, Any]:
     """Everything needed to reproduce the run (no secrets)."""
     options = request["options"]
-    suite = load_prompt_suite(options.prompt_suite)
     return {
         "name": Path(out).name,
         "created_at": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
         "cocobench_agents": __version__,
         "versions": {"python": platform.python_version(), **_package_versions()},
-        "prompt_suite": suite.record(),  # spec, version, content hash (and a folder's path)
+        **_suites_record(options),
         # planners from the researcher's code: code, origin, file hash (guards a resume)
         "planners": planners_record(c.planner for c in request["conditions"]),
         "plan": {"sources": request["sources"], "task_ids": request["task_ids"],
                  "models": request["models"], "agent_models": request["agent_models"],
                  "conditions": [c.name for c in request["conditions"]],
+                 **({"arms": list(options.arms)} if options.arms else {}),
+                 **({"planner_arms": request["planner_arms"]}
+                    if request.get("planner_arms") else {}),
                  "epochs": request["epochs"]},
         "options": {"backend": options.backend, "max_steps": options.max_steps,
                     "stable_ids": options.stable_ids},
@@ -58,8 +60,18 @@ def _replayable_request(request: dict[str, Any]) -> dict[str, Any]:
             "conditions": ",".join(c.name for c in request["conditions"]),
             "epochs": request["epochs"], "task_id": request["task_ids"], "eval_set": (),
             "only_cell": None, "only_family": None, "only_dim": None, "limit": 0,
-            "prompt_suite": options.prompt_suite, "backend": options.backend,
+            "prompt_suite": list(options.arms.values()) or options.prompt_suite,
+            "backend": options.backend,
             "max_steps": options.max_steps, "stable_ids": options.stable_ids}
+
+
+def _suites_record(options: RunOptions) -> dict[str, Any]:
+    """The prompt suite (spec, version, content hash, a folder's path), or with arms each
+    arm's suite: what `--resume` checks the suites against."""
+    if not options.arms:
+        return {"prompt_suite": load_prompt_suite(options.prompt_suite).record()}
+    return {"prompt_suites": [{"arm": arm, **load_prompt_suite(spec).record()}
+                              for arm, spec in options.arms.items()]}
 
 
 def _package_versions() -> dict[str, str]:

@@ -32,6 +32,7 @@ class ResultRow(_Row):
     condition: Text
     task_id: Text
     epoch: Annotated[int, Field(ge=0)] | None = 0
+    arm: Text | None = None  # the prompt-suite arm, in a run comparing several
     task_success: Annotated[int, Field(ge=0, le=1)]
     infra_error: str | None = None
     trajectory: Text | None = None
@@ -72,12 +73,14 @@ def row_error(data: Any) -> str | None:
     return None
 
 
-def row_identity(data: Any) -> tuple[str, str, str, int] | None:
-    """(model, condition, task_id, epoch) of a line, valid or not, when it says them."""
+def row_identity(data: Any) -> tuple[str, str, str, int, str] | None:
+    """(model, condition, task_id, epoch, arm) of a line, valid or not, when it says them."""
     if not isinstance(data, dict):
         return None
     names = [data.get(k) for k in ("model", "condition", "task_id")]
     epoch = data.get("epoch") or 0
-    if all(isinstance(n, str) and n for n in names) and type(epoch) is int and epoch >= 0:
-        return names[0], names[1], names[2], epoch
+    arm = data.get("arm") or ""
+    if (all(isinstance(n, str) and n for n in names) and type(epoch) is int and epoch >= 0
+            and isinstance(arm, str)):
+        return names[0], names[1], names[2], epoch, arm
     return None

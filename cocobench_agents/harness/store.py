@@ -41,15 +41,22 @@ class EpisodeKey:
     condition: str
     task_id: str
     epoch: int = 0
+    #: The prompt-suite arm of a run that compares several (`plan.suite_arms`); "" otherwise,
+    #: so that a single-suite run's folders and result lines are those of before arms.
+    arm: str = ""
 
     def folder(self) -> str:
         """Where its trajectory lives, relative to the run folder."""
         leaf = self.task_id if self.epoch == 0 else f"{self.task_id}@e{self.epoch}"
-        return f"episodes/{model_slug(self.model)}/{self.condition}/{leaf}"
+        arm = f"/{model_slug(self.arm)}" if self.arm else ""
+        return f"episodes/{model_slug(self.model)}/{self.condition}{arm}/{leaf}"
 
     def as_dict(self) -> dict[str, Any]:
-        return {"model": self.model, "condition": self.condition, "task_id": self.task_id,
-                "epoch": self.epoch}
+        out = {"model": self.model, "condition": self.condition, "task_id": self.task_id,
+               "epoch": self.epoch}
+        if self.arm:
+            out["arm"] = self.arm
+        return out
 
 
 RESULTS = "results.jsonl"
@@ -295,12 +302,13 @@ class RunFolder:
 def result_key(record: dict[str, Any]) -> EpisodeKey:
     """The episode a result line belongs to."""
     return EpisodeKey(record["model"], record["condition"], record["task_id"],
-                      int(record.get("epoch") or 0))
+                      int(record.get("epoch") or 0), record.get("arm") or "")
 
 
 def _name(key: EpisodeKey) -> str:
     epoch = f" epoch {key.epoch}" if key.epoch else ""
-    return f"{key.model} {key.condition} {key.task_id}{epoch}"
+    arm = f" arm {key.arm}" if key.arm else ""
+    return f"{key.model} {key.condition}{arm} {key.task_id}{epoch}"
 
 
 def _gist(exc: BaseException) -> str:

@@ -1,4 +1,5 @@
-"""The closing summary of a run: success and construct scores per model and condition."""
+"""The closing summary of a run: success and construct scores per model and condition (and
+prompt-suite arm, in a run that compares several)."""
 
 from __future__ import annotations
 
@@ -13,14 +14,29 @@ HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DI
            "errors")
 
 
-def summary_rows(records: Iterable[dict[str, Any]]) -> list[list[Any]]:
-    """One row per (model, condition): episodes, success rate, mean construct score overall
-    and per dimension (scored episodes only), legal-plan rate, and the infrastructure
-    failures (`is_infra_failure`)."""
-    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+def summary_table(records: Iterable[dict[str, Any]]) -> tuple[tuple[str, ...], list[list[Any]]]:
+    """The headers and one row per (model, condition): episodes, success rate, mean
+    construct score overall and per dimension (scored episodes only), legal-plan rate, and
+    the infrastructure failures (`is_infra_failure`). Records with prompt-suite arms get one
+    row per (model, condition, arm) and an `arm` column, arms in the order they first appear
+    (the order they were given)."""
+    groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for record in latest(records):
-        groups.setdefault((record["model"], record["condition"]), []).append(record)
-    return [_row(model, condition, rows) for (model, condition), rows in sorted(groups.items())]
+        key = result_key(record)
+        groups.setdefault((key.model, key.condition, key.arm), []).append(record)
+    arms = list(dict.fromkeys(arm for _, _, arm in groups))
+    order = sorted(groups, key=lambda g: (g[0], g[1], arms.index(g[2])))
+    if arms in ([], [""]):
+        return HEADERS, [[model, condition, *_row(groups[model, condition, arm])]
+                         for model, condition, arm in order]
+    return (*HEADERS[:2], "arm", *HEADERS[2:]), [
+        [model, condition, arm, *_row(groups[model, condition, arm])]
+        for model, condition, arm in order]
+
+
+def summary_rows(records: Iterable[dict[str, Any]]) -> list[list[Any]]:
+    """The rows of `summary_table`."""
+    return summary_table(records)[1]
 
 
 def latest(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -28,10 +44,10 @@ def latest(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     return list({result_key(r): r for r in records}.values())
 
 
-def _row(model: str, condition: str, rows: list[dict[str, Any]]) -> list[Any]:
+def _row(rows: list[dict[str, Any]]) -> list[Any]:
     ran = [r for r in rows if not r.get("infra_error")]
     legal = [r["legal_plan"] for r in ran if r.get("legal_plan") is not None]
-    return [model, condition, len(rows), _rate([r["task_success"] for r in rows]),
+    return [len(rows), _rate([r["task_success"] for r in rows]),
             _mean_construct(ran), *(_mean_construct([r for r in ran if r.get("dim") == d])
                                    for d in DIMS),
             _rate(legal), count_infra_failures(rows)]

@@ -57,6 +57,12 @@ class PromptSuite:
         return "+".join([self.path or self.name, *sorted(self.variants)])
 
     @property
+    def label(self) -> str:
+        """A short name for the suite as an arm of a run (`cocobench-v1+no-hint`, a folder's
+        name with its variants): the same wherever the run is resumed from."""
+        return "+".join([self.name, *sorted(self.variants)])
+
+    @property
     def content_hash(self) -> str:
         """sha256 of everything that decides the prompts: the files and the variants (not the
         suite's name or location, so an unedited copy hashes as its original)."""

@@ -22,12 +22,12 @@ MODEL_SETTINGS = ("api_base", "transport", "temperature", "max_tokens", "grammar
 _BUILTINS = ("greedy", "random", "scripted", "replay", "oracle")
 
 
-def row_settings(record: Mapping[str, Any], model: str) -> dict[str, Any]:
-    """What a run's `run.json` says shapes the episodes of `model` (missing: None)."""
+def row_settings(record: Mapping[str, Any], model: str, arm: str = "") -> dict[str, Any]:
+    """What a run's `run.json` says shapes the episodes of `model` (in the run's
+    prompt-suite `arm`, if it has arms; missing: None)."""
     options = _mapping(record.get("options"))
     settings = {name: options.get(name) for name in RUN_OPTIONS}
-    suite = record.get("prompt_suite")
-    suite = suite if isinstance(suite, Mapping) else {"spec": suite}
+    suite = _suite(record, arm)
     settings["prompt_suite"] = suite.get("spec")
     if suite.get("content_hash"):  # older runs did not record it
         settings["prompt_suite content"] = suite["content_hash"]
@@ -46,9 +46,19 @@ def difference(a: Mapping[str, Any], b: Mapping[str, Any]) -> str | None:
     return None
 
 
-def arm_label(model: str, run: str | Path) -> str:
-    """`model` as the arm of one run (``--arms``): labelled by the run folder as given."""
-    return f"{model} @{run}"
+def arm_label(model: str, arm: str | Path) -> str:
+    """`model` as one arm: of a run (``--arms``), labelled by the run folder as given, or
+    of a run's prompt-suite arms, labelled by the suite (``MODEL @cocobench-v1+no-hint``)."""
+    return f"{model} @{arm}"
+
+
+def _suite(record: Mapping[str, Any], arm: str) -> Mapping[str, Any]:
+    """The `run.json` record of the prompt suite of `arm` (the run's one suite without)."""
+    suites = record.get("prompt_suites")
+    if isinstance(suites, list):
+        return next((s for s in suites if isinstance(s, Mapping) and s.get("arm") == arm), {})
+    suite = record.get("prompt_suite")
+    return suite if isinstance(suite, Mapping) else {"spec": suite}
 
 
 def _mapping(value: Any) -> Mapping[str, Any]:

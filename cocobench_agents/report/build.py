@@ -6,7 +6,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from cocobench_agents.report import diagnostics, tables
+from cocobench_agents.report import diagnostics, paired, tables
 from cocobench_agents.report.load import ReportData, ReportError, load_runs
 from cocobench_agents.report.render import PlotEntry, index_markdown, to_csv, to_markdown
 from cocobench_agents.report.stats import Bootstrap
@@ -44,9 +44,13 @@ class ReportSummary:
 
 
 def compute_tables(data: ReportData, boot: Bootstrap | None = None) -> list[Table]:
-    """Every report table for already loaded runs."""
+    """Every report table for already loaded runs (the arms table only when they have
+    arms: see `paired`)."""
     ctx = tables.Ctx(data, boot or Bootstrap())
-    return [make(ctx) for make in TABLES]
+    made = [make(ctx) for make in TABLES]
+    if paired.arm_groups(data):
+        made.insert(1, paired.arms_table(ctx))  # an ablation's result: next to the main one
+    return made
 
 
 def plot_condition(data: ReportData, wanted: str | None = None) -> str | None:

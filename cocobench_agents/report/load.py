@@ -6,7 +6,8 @@ in a warning, and a torn last line of a run in progress or a killed run is skipp
 An episode whose latest line is invalid is left out. An episode is identified by
 (model, condition, task_id, epoch): a later line supersedes an earlier one in the same run
 (retries), and a later run supersedes an earlier one when several runs are reported together,
-so the same model in several runs is merged into one set of episodes.
+so the same model in several runs is merged into one set of episodes. A run with prompt-suite
+arms reports each model once per arm, labelled ``MODEL @ARM`` (as `--arms` labels runs).
 """
 
 from __future__ import annotations
@@ -83,8 +84,15 @@ class RunInfo:
         return self.record.get("plan") or {}
 
     @property
+    def arms(self) -> list[str]:
+        """The run's prompt-suite arms, in the order given (none for a single suite)."""
+        return list(self.plan.get("arms") or [])
+
+    @property
     def models(self) -> list[str]:
-        return list(self.plan.get("models") or [])
+        """The report rows' models the plan names: each model once per arm."""
+        models = list(self.plan.get("models") or [])
+        return [arm_label(m, a) for m in models for a in self.arms] if self.arms else models
 
     @property
     def conditions(self) -> list[str]:
@@ -97,7 +105,8 @@ class RunInfo:
         tasks, models, conds = plan.get("task_ids"), plan.get("models"), plan.get("conditions")
         if not (tasks and models and conds):
             return None
-        return len(tasks) * len(models) * len(conds) * int(plan.get("epochs") or 1)
+        arms = max(1, len(self.arms))
+        return len(tasks) * len(models) * len(conds) * arms * int(plan.get("epochs") or 1)
 
 
 @dataclass
@@ -146,6 +155,9 @@ class ReportData:
     conditions: list[str]
     superseded_across_runs: int = 0
     warnings: list[str] = field(default_factory=list)
+    #: The rows that are arms (`MODEL @ARM`): label → (model, arm). Arms of a run, and runs
+    #: reported with `--arms`, whose arm is the run's path (`ARM @RUN` for both).
+    model_arms: dict[str, tuple[str, str]] = field(default_factory=dict)
 
     def architectures(self) -> list[str]:
         return _unique(split_condition(c)[0] for c in self.conditions)
@@ -186,18 +198,23 @@ def load_runs(paths: Sequence[str | Path], *, arms: bool = False) -> ReportData:
     folders = [check_run_folder(p) for p in paths]
     merged: dict[tuple, tuple[int, dict[str, Any]]] = {}
     row_runs: dict[tuple[str, str], int] = {}  # report row -> the first run with episodes
+    model_arms: dict[str, tuple[str, str]] = {}
     runs, models, conditions, across = [], [], [], 0
     for index, path in enumerate(folders):
         info, records = _read_run(path)
         if arms:
             records = {(arm_label(k[0], path), *k[1:]): r for k, r in records.items()}
+        # a row's model label -> (model, prompt-suite arm) as the run recorded them
+        identity = {k[0]: (r["model"], r.get("arm") or "") for k, r in records.items()}
+        model_arms.update({label: (model, _arm(arm, path if arms else None))
+                           for label, (model, arm) in identity.items() if arm or arms})
         runs.append(info)
         models += [arm_label(m, path) for m in info.models] if arms else info.models
         conditions += info.conditions
         for row in dict.fromkeys(key[:2] for key in records):
             first = row_runs.setdefault(row, index)
-            if first != index:
-                _check_same_settings(runs[first], info, *row)
+            if first != index:  # (with --arms, rows of two runs never meet)
+                _check_same_settings(runs[first], info, *row, *identity[row[0]])
         for key, record in records.items():
             across += key in merged
             merged[key] = (index, record)
@@ -212,14 +229,24 @@ def load_runs(paths: Sequence[str | Path], *, arms: bool = False) -> ReportData:
         models.index(kv[0][0]), conditions.index(kv[0][1]), kv[0][2], kv[0][3]))
     return ReportData(runs=runs, episodes=_columns(items), models=models,
                       conditions=conditions, superseded_across_runs=across,
-                      warnings=invalid_line_warnings(runs))
+                      warnings=invalid_line_warnings(runs),
+                      model_arms={k: v for k, v in model_arms.items() if k in present_models})
 
 
-def _check_same_settings(first: RunInfo, other: RunInfo, model: str, condition: str) -> None:
-    differ = difference(row_settings(first.record, model), row_settings(other.record, model))
+def _arm(arm: str, run: Path | None) -> str:
+    """A row's arm: its prompt-suite arm, and its run with `--arms` (``ARM @RUN``)."""
+    if run is None:
+        return arm
+    return arm_label(arm, run) if arm else str(run)
+
+
+def _check_same_settings(first: RunInfo, other: RunInfo, label: str, condition: str,
+                         model: str, arm: str) -> None:
+    differ = difference(row_settings(first.record, model, arm),
+                        row_settings(other.record, model, arm))
     if differ:
         raise ReportError(
-            f"{first.path} and {other.path} both hold {model} {condition} episodes but differ "
+            f"{first.path} and {other.path} both hold {label} {condition} episodes but differ "
             f"in {differ}: report them separately, or pass --arms to make each run its own arm")
 
 
@@ -234,8 +261,8 @@ def _read_run(path: Path) -> tuple[RunInfo, dict[tuple, dict[str, Any]]]:
         except RunFolderError as exc:  # not JSON, or not an object
             raise NotARunFolder(str(exc)) from None
     scan = folder.scan_results(check_trajectories=True)  # every line validated (pydantic)
-    records = {(k.model, k.condition, k.task_id, k.epoch): row  # file order of latest lines
-               for k, row in scan.latest.items()}
+    records = {(arm_label(k.model, k.arm) if k.arm else k.model, k.condition, k.task_id,
+                k.epoch): row for k, row in scan.latest.items()}  # file order of latest lines
     info = RunInfo(
         path=path, name=str(record.get("name") or path.resolve().name), record=record,
         lines=len(scan.rows), torn_tail=scan.torn_tail, episodes=len(records),

@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from cocobench_agents.report import paired
 from cocobench_agents.report.load import DIMENSIONS
 from cocobench_agents.report.render import PlotEntry
 from cocobench_agents.report.stats import Estimate
@@ -145,6 +146,32 @@ def observation(tables: dict[str, Table], path: Path, condition: str) -> bool:
     return True
 
 
+def _arms(metric: str, ylabel: str, scale: float, top: float
+          ) -> Callable[[dict[str, Table], Path, str], bool]:
+    """A figure of one metric for every arm of every model and condition of the arms table,
+    arms side by side with their intervals (all conditions: arms are compared in each)."""
+
+    def draw(tables: dict[str, Table], path: Path, condition: str) -> bool:
+        table = tables.get(paired.NAME)
+        rows = [r for r in table.records() if not r["baseline"]] if table else []
+        if not rows:
+            return False
+        groups = list(dict.fromkeys((r["model"], r["condition"]) for r in rows))
+        arms = list(dict.fromkeys(r["arm"] for r in rows))
+        cell = {(r["model"], r["condition"], r["arm"]): r[metric] for r in rows}
+        fig, axes = _figure(min(24.0, 4.0 + 0.5 * len(groups) * len(arms)), 4.6)
+        _bars(axes[0], [f"{m}\n{c}" for m, c in groups],
+              [(arm, [cell.get((m, c, arm)) for m, c in groups]) for arm in arms],
+              scale, ylabel)
+        axes[0].set_ylim(0, top)
+        axes[0].set_title(f"{ylabel} per arm (bootstrap intervals)")
+        _legend(fig, axes, len(arms))
+        _save(fig, path)
+        return True
+
+    return draw
+
+
 def team_size(tables: dict[str, Table], path: Path, condition: str) -> bool:
     table = tables["team_size"]
     rows = [r for r in table.records() if r["condition"] == condition]
@@ -255,6 +282,8 @@ def correlation(tables: dict[str, Table], path: Path, condition: str) -> bool:
 
 PLOTS: tuple[tuple[str, str, Callable[[dict[str, Table], Path, str], bool]], ...] = (
     ("fig_by_dimension.png", "SR and CS by dimension", by_dimension),
+    ("fig_arms_sr.png", "Success rate per arm", _arms("sr", "SR (%)", 100.0, 105.0)),
+    ("fig_arms_cs.png", "Construct score per arm", _arms("cs", "CS", 1.0, 1.05)),
     ("fig_architecture.png", "Architecture deltas vs C0", architecture_deltas),
     ("fig_observation.png", "Image vs blind", observation),
     ("fig_team_size.png", "Team-size curves", team_size),

@@ -182,6 +182,8 @@ def index_markdown(data: ReportData, tables: Sequence[Table], plots: Sequence[Pl
 
 
 def _prompt_suite(record: dict[str, Any]) -> str:
+    if isinstance(record.get("prompt_suites"), list):  # a run with prompt-suite arms
+        return ", ".join(_prompt_suite({"prompt_suite": s}) for s in record["prompt_suites"])
     suite = record.get("prompt_suite") or {}
     if isinstance(suite, dict):
         return " ".join(str(v) for v in (suite.get("spec"), suite.get("version")) if v)

@@ -63,7 +63,7 @@ def stop_decision(*, policy: str, model: str | None, agent: str | None, step_ind
     """A decision without a model call: an empty menu, the step budget, an all-idle round."""
     return {"policy": policy, "backend": _provider(model) if model else None, "model": model,
             "agent": agent, "step_index": step_index, "status": status,
-            "terminal_reason": status}
+            "parsed_call": None, "terminal_reason": status}
 
 
 def _provider(model: str) -> str:

@@ -12,7 +12,7 @@ import jinja2
 
 from benchmark_adapter.metrics.constructs import construct_score
 from benchmark_adapter.metrics.errors import TrajectoryError
-from cocobench_agents.harness.summary import HEADERS, summary_rows
+from cocobench_agents.harness.summary import HEADERS, summary_table
 from cocobench_agents.report.load import split_condition
 from cocobench_agents.viewer.rows import COLUMNS, FILTERS, compare_path, episode_row
 from cocobench_agents.viewer.signals import STEP_CATEGORIES, construct_signal, gantt
@@ -54,7 +54,7 @@ class Pages:
     # Rows and the summary are made once per result line: a live page of thousands of
     # episodes re-renders only what changed.
     _rows: dict[tuple[int, int], dict[str, Any]] = field(default_factory=dict)
-    _summary: tuple[int, list[list[Any]]] = (-1, [])
+    _summary: tuple[int, tuple[tuple[str, ...], list[list[Any]]]] = (-1, (HEADERS, []))
 
     @classmethod
     def create(cls, catalog: Catalog, *, live: bool) -> Pages:
@@ -67,9 +67,10 @@ class Pages:
         values = {key: sorted({r["v"][index[key]] for r in rows}, key=_natural)
                   for key in FILTERS}
         if self._summary[0] != self.catalog.seq:
-            self._summary = (self.catalog.seq, summary_rows(e.record for e in episodes))
+            self._summary = (self.catalog.seq, summary_table(e.record for e in episodes))
+        headers, summary = self._summary[1]
         return self._render("runs.html", "index.html", runs=self.catalog.runs, rows=rows,
-                            values=values, headers=HEADERS, summary=self._summary[1],
+                            values=values, headers=headers, summary=summary,
                             seq=self.catalog.seq)
 
     def new_rows(self, since: int) -> dict[str, Any]:
