@@ -23,7 +23,7 @@ def _config(**changes) -> TaskConfig:
 @pytest.mark.parametrize("planner", ["centralized", "decentralized", "leader-worker"])
 def test_an_empty_menu_ends_the_episode_as_no_actions(planner):
     config = _config(allowed_skills=["NoSuchSkill"])
-    document, result = asyncio.run(run_episode(EpisodeSpec(config, planner=planner,
+    _document, result = asyncio.run(run_episode(EpisodeSpec(config, planner=planner,
                                                            max_steps=3), ModelPool()))
     assert result.terminal_reason == "no_actions"
     assert result.num_steps == 0

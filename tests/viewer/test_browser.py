@@ -19,6 +19,9 @@ from cocobench_agents.viewer.source import Catalog
 
 from .browser import chromium_page, why_unavailable
 
+if why_unavailable() is None:
+    from playwright.sync_api import expect
+
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(why_unavailable() is not None, reason=str(why_unavailable()))]
 
@@ -47,12 +50,12 @@ def check_site(page: Any, base: str, run: Path, shots: Path, tag: str) -> None:
     records = results(run)
     page.goto(base + "index.html")
     rows = page.locator("table.episodes tbody tr")
-    assert rows.count() == len(records)
+    expect(rows).to_have_count(len(records))
     listed = set(rows.evaluate_all("rs => rs.map(r => r.dataset.key)"))
     assert listed == {f"0/episodes/greedy/{r['condition']}/{r['task_id']}" for r in records}
     page.screenshot(path=shots / f"{tag}-runs.png", full_page=True)
     page.select_option('select[data-filter="dim"]', "D4")  # the filters work in the page
-    assert page.locator("table.episodes tbody tr:visible").count() == 2
+    expect(page.locator("table.episodes tbody tr")).to_have_count(2)
     page.select_option('select[data-filter="dim"]', "")
     page.locator('th[data-key="steps"]').click()  # sorting numerically
     steps = [int(t) for t in page.locator("tbody tr td:nth-child(15)").all_inner_texts()]
@@ -60,7 +63,7 @@ def check_site(page: Any, base: str, run: Path, shots: Path, tag: str) -> None:
 
     record = next(r for r in records if r["condition"] == "D1_blind" and r["dim"] == "D2")
     page.click(f'a[href$="greedy/D1_blind/{record["task_id"]}.html"]')  # the row's link
-    assert page.locator("li.entry.landed").count() == record["num_steps"]
+    expect(page.locator("li.entry.landed")).to_have_count(record["num_steps"])
     traj = json.loads((run / record["trajectory"]).read_text())
     replies = page.locator("div.reply pre").all_inner_texts()
     assert replies == [d["raw_output"] for d in traj["planner_decisions"]]
@@ -70,7 +73,7 @@ def check_site(page: Any, base: str, run: Path, shots: Path, tag: str) -> None:
     assert page.locator("details.prompt[open]").count() == len(traj["planner_decisions"])
 
     page.goto(base + f"compare/{record['task_id']}.html")
-    assert page.locator("thead th:visible").count() == 3  # the step column and two episodes
+    expect(page.locator("thead th:visible")).to_have_count(3)  # the steps and two episodes
     page.screenshot(path=shots / f"{tag}-compare.png", full_page=False)
 
 
@@ -82,9 +85,9 @@ def test_live_viewer_in_chromium(live: str, run_copy: Path, shots: Path) -> None
         with open(run_copy / "results.jsonl", "a") as f:
             f.write(json.dumps(line) + "\n")
         # the open page picks the new episode up by itself (it polls every 2 s)
-        page.wait_for_selector("td:has-text('appended-live')", timeout=15_000)
-        assert page.locator("table.episodes tbody tr").count() == 9
-        assert page.locator("#episode-count").inner_text() == "9"
+        expect(page.locator("td", has_text="appended-live")).to_have_count(1, timeout=30_000)
+        expect(page.locator("table.episodes tbody tr")).to_have_count(9)
+        expect(page.locator("#episode-count")).to_have_text("9")
 
 
 def test_export_in_chromium(fixed_run: Path, tmp_path: Path, shots: Path) -> None:
