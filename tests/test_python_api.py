@@ -73,3 +73,29 @@ def test_evaluate_async_runs_inside_an_event_loop(tmp_path):
                                        max_steps=2)
 
     assert len(asyncio.run(notebook_cell())) == 4
+
+
+def test_evaluate_runs_prompt_suite_and_planner_arms_as_the_command_does(tmp_path):
+    suites = ["cocobench-v1", "cocobench-v1+no-hint"]
+    results = cb.evaluate("demo", models="random:3", planners=["centralized", "leader-worker"],
+                          prompt_suites=suites, max_steps=4, out=tmp_path / "api")
+    assert len(results) == 4 * 2 * 2 and results.errors == 0
+    cells = {(r["condition"], r["arm"]) for r in results}
+    assert cells == {(c, s) for c in ("C0_image", "LW_image") for s in suites}
+    assert all(r["prompt_suite"] == r["arm"] for r in results)
+    assert main(["run", "--suite", "demo", "--model", "random:3", "--planner", "centralized",
+                 "--planner", "leader-worker", "--obs", "image", "--prompt-suite", suites[0],
+                 "--prompt-suite", suites[1], "--max-steps", "4",
+                 "--out", str(tmp_path / "cli")]) == 0
+
+    def lines(folder: Path) -> list[dict]:
+        records = [json.loads(line) for line in (folder / "results.jsonl").read_text()
+                   .splitlines()]
+        return sorted(({k: v for k, v in r.items() if k != "elapsed_s"} for r in records),
+                      key=lambda r: (r["condition"], r["arm"], r["task_id"]))
+
+    assert lines(tmp_path / "api") == lines(tmp_path / "cli")
+    from cocobench_agents.api import report  # `cb.report` is shadowed once the report
+                                             # subpackage is imported (see the lead's note)
+    written = report(tmp_path / "api", tmp_path / "report", plots=False)
+    assert "arms" in [t.name for t in written.tables]

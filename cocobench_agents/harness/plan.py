@@ -63,10 +63,12 @@ def parse_conditions(text: str) -> list[Condition]:
 
 def planner_conditions(planners: Iterable[str], obs_modes: Iterable[str]) -> list[Condition]:
     """`--planner A --planner B --obs image`: each planner is an arm, and a planner's arm is
-    its condition under each observation mode (`A_image`, `B_image`)."""
+    its condition under each observation mode (`A_image`, `B_image`). A planner is named as
+    in a condition (`find_planner`: a name, a code, `FILE.py:NAME`)."""
     modes = list(dict.fromkeys(obs_modes))
-    out = [Condition(planner_spec(p).name, obs) for p in dict.fromkeys(planners)
-           for obs in modes]
+    # planner_spec raises the error naming every known planner for one that is not
+    names = [find_planner(p) or planner_spec(p).name for p in dict.fromkeys(planners)]
+    out = [Condition(name, obs) for name in names for obs in modes]
     out = list(dict.fromkeys(out))  # two spellings of one planner are one arm
     _check_distinct(out)
     return out

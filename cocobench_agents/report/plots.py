@@ -282,14 +282,17 @@ def correlation(tables: dict[str, Table], path: Path, condition: str) -> bool:
 
 PLOTS: tuple[tuple[str, str, Callable[[dict[str, Table], Path, str], bool]], ...] = (
     ("fig_by_dimension.png", "SR and CS by dimension", by_dimension),
-    ("fig_arms_sr.png", "Success rate per arm", _arms("sr", "SR (%)", 100.0, 105.0)),
-    ("fig_arms_cs.png", "Construct score per arm", _arms("cs", "CS", 1.0, 1.05)),
     ("fig_architecture.png", "Architecture deltas vs C0", architecture_deltas),
     ("fig_observation.png", "Image vs blind", observation),
     ("fig_team_size.png", "Team-size curves", team_size),
     ("fig_failure_modes.png", "Terminal-state taxonomy", failure_modes),
     ("fig_legality.png", "Success vs legal plan", legality),
     ("fig_correlation.png", "Construct correlation heatmap", correlation),
+)
+#: One figure per metric of the arms table (written when the runs have arms).
+ARM_PLOTS: tuple[tuple[str, str, Callable[[dict[str, Table], Path, str], bool]], ...] = (
+    ("fig_arms_sr.png", "Success rate per arm", _arms("sr", "SR (%)", 100.0, 105.0)),
+    ("fig_arms_cs.png", "Construct score per arm", _arms("cs", "CS", 1.0, 1.05)),
 )
 
 
@@ -301,7 +304,7 @@ def write_plots(tables: Sequence[Table], out: Path, condition: str) -> list[Plot
     written = []
     with matplotlib.style.context("default"), matplotlib.rc_context(
             {"svg.hashsalt": "cocobench", "figure.max_open_warning": 0}):
-        for file, title, draw in PLOTS:
+        for file, title, draw in (*PLOTS, *ARM_PLOTS):
             if draw(by_name, out / file, condition):
                 written.append(PlotEntry(file, title))
     return written

@@ -17,6 +17,8 @@ FIXTURES = HERE / "fixtures"
 GOLDEN = HERE / "golden"
 RUN_SMALL = FIXTURES / "run_small"
 RUN_ORACLE = FIXTURES / "run_oracle"
+RUN_ARMS = FIXTURES / "run_arms"
+RUN_ORACLE_SHORT = FIXTURES / "run_oracle_short"
 
 
 def result_lines(run: Path) -> list[dict[str, Any]]:
