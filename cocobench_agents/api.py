@@ -139,7 +139,7 @@ def score(trajectory: str | Path) -> Any:
 def report(runs: str | Path | Sequence[str | Path], out: str | Path, **options: Any) -> Any:
     """Write the paper's tables and figures for `runs` into `out` (as ``cocobench report``);
     returns what was written (files and warnings)."""
-    from cocobench_agents.report import build_report
+    from cocobench_agents.reports import build_report
 
     return build_report([str(r) for r in _listed(runs)], Path(out), **options)
 

@@ -32,8 +32,8 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
     interrupted are reported from their complete result lines.
     """
     # Imported here: numpy and the report code load only when a report is made.
-    from cocobench_agents.report import Bootstrap, NotARunFolder, ReportError, build_report
-    from cocobench_agents.report.stats import DEFAULT_SEED
+    from cocobench_agents.reports import Bootstrap, NotARunFolder, ReportError, build_report
+    from cocobench_agents.reports.stats import DEFAULT_SEED
 
     target = Path(out) if out else Path(runs[0]) / "report"
     boot = Bootstrap(resamples=resamples, seed=DEFAULT_SEED if seed is None else seed)

@@ -20,8 +20,8 @@ from cocobench_agents.models.secrets import REDACTED, redact_named, redact_url
 #: Options that change what is sent or scored: a resumed run must keep them.
 SHAPING = frozenset({
     "tasks", "suite", "eval_set", "only_cell", "only_family", "only_dim", "task_id", "limit",
-    "missing", "planner", "planners", "obs_mode", "conditions", "models", "agent_models",
-    "baselines", "epochs", "prompt_suite", "prompt_suites", "backend", "max_steps",
+    "missing", "planner", "obs_mode", "conditions", "models", "agent_models",
+    "baselines", "epochs", "prompt_suite", "backend", "max_steps",
     "stable_ids", "api_base", "transport", "temperature", "max_tokens", "grammar", "seed",
     "extra_json",
 })
@@ -94,8 +94,7 @@ def _planner_ref(text: str) -> str:
 
 
 #: Options naming a prompt suite or a planner: recorded in canonical form.
-REFERENCES = {"prompt_suite": _suite_spec, "prompt_suites": _suite_spec,
-              "planner": _planner_ref, "planners": _planner_ref}
+REFERENCES = {"prompt_suite": _suite_spec, "planner": _planner_ref}
 
 
 def _each(value: Any, canonical: Any) -> Any:

@@ -13,7 +13,7 @@ import jinja2
 from benchmark_adapter.metrics.constructs import construct_score
 from benchmark_adapter.metrics.errors import TrajectoryError
 from cocobench_agents.harness.summary import HEADERS, summary_table
-from cocobench_agents.report.load import split_condition
+from cocobench_agents.reports.load import split_condition
 from cocobench_agents.viewer.rows import COLUMNS, FILTERS, compare_path, episode_row
 from cocobench_agents.viewer.signals import STEP_CATEGORIES, construct_signal, gantt
 from cocobench_agents.viewer.source import Catalog, Episode

@@ -13,7 +13,7 @@ import pytest
 
 from cocobench_agents.cli import main
 from cocobench_agents.harness.store import EpisodeKey, RunFolder, RunFolderError
-from cocobench_agents.report import load_runs
+from cocobench_agents.reports import load_runs
 from cocobench_agents.tools import prompt_hash
 
 RUN = ["run", "--suite", "demo", "--model", "greedy", "--conditions", "all", "--jobs", "4"]

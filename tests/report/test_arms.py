@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 from cocobench_agents.cli import main
-from cocobench_agents.report import ReportError, load_runs
+from cocobench_agents.reports import ReportError, load_runs
 
 from .helpers import RUN_SMALL, result_lines, write_run
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from cocobench_agents.report import build_report
+from cocobench_agents.reports import build_report
 
 from .helpers import GOLDEN, RUN_ORACLE, RUN_SMALL, result_lines
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from cocobench_agents.report import NotARunFolder, build_report, compute_tables, load_runs
-from cocobench_agents.report.render import to_csv
+from cocobench_agents.reports import NotARunFolder, build_report, compute_tables, load_runs
+from cocobench_agents.reports.render import to_csv
 
 from .helpers import (
     NOT_RUN_FOLDERS,

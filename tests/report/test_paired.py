@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from cocobench_agents.cli import main
-from cocobench_agents.report import ReportError, build_report, load_runs
+from cocobench_agents.reports import ReportError, build_report, load_runs
 
 from .helpers import RUN_ARMS, RUN_ORACLE, RUN_ORACLE_SHORT, RUN_SMALL, result_lines, write_run
 

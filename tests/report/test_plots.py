@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from cocobench_agents.report import ReportError, build_report
-from cocobench_agents.report.plots import INSTALL_HINT, PLOTS
+from cocobench_agents.reports import ReportError, build_report
+from cocobench_agents.reports.plots import INSTALL_HINT, PLOTS
 
 from .helpers import RUN_ORACLE, RUN_SMALL
 

@@ -6,7 +6,7 @@ import random
 import time
 from pathlib import Path
 
-from cocobench_agents.report import build_report
+from cocobench_agents.reports import build_report
 
 from .helpers import RUN_SMALL, result_lines, write_run
 

@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from cocobench_agents.report.stats import (
+from cocobench_agents.reports.stats import (
     Bootstrap,
     correlation_matrix,
     mean_ci,

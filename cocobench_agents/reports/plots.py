@@ -13,12 +13,12 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.report import paired
-from cocobench_agents.report.load import DIMENSIONS
-from cocobench_agents.report.render import PlotEntry
-from cocobench_agents.report.stats import Estimate
-from cocobench_agents.report.table import Table
-from cocobench_agents.report.tables import GROUPS, group_prefix
+from cocobench_agents.reports import paired
+from cocobench_agents.reports.load import DIMENSIONS
+from cocobench_agents.reports.render import PlotEntry
+from cocobench_agents.reports.stats import Estimate
+from cocobench_agents.reports.table import Table
+from cocobench_agents.reports.tables import GROUPS, group_prefix
 
 DPI = 120
 GROUP_LABELS = ("Overall", *DIMENSIONS)  # the labels of tables.GROUPS

@@ -4,15 +4,15 @@ supplementary Tables 5-6, Figure 2)."""
 from __future__ import annotations
 
 from benchmark_adapter.metrics import FAILURE_KINDS
-from cocobench_agents.report.load import DIMENSIONS, INFRA_KIND, UNRECORDED_KIND
-from cocobench_agents.report.stats import (
+from cocobench_agents.reports.load import DIMENSIONS, INFRA_KIND, UNRECORDED_KIND
+from cocobench_agents.reports.stats import (
     correlation_matrix,
     mean_ci,
     paired_diff_ci,
     total,
 )
-from cocobench_agents.report.table import Column, Table
-from cocobench_agents.report.tables import ID_COLUMNS, Ctx
+from cocobench_agents.reports.table import Column, Table
+from cocobench_agents.reports.tables import ID_COLUMNS, Ctx
 
 FLAGS = (("dep", "Dep"), ("occ", "Occ"), ("aff", "Aff"), ("ill", "Ill"))
 POOLED = "(all)"

@@ -21,7 +21,7 @@ import numpy as np
 
 from cocobench_agents.harness.infra import is_infra_failure
 from cocobench_agents.harness.store import RESULTS, RUN_FILE, RunFolder, RunFolderError
-from cocobench_agents.report.arms import arm_label, difference, row_settings
+from cocobench_agents.reports.arms import arm_label, difference, row_settings
 
 DIMENSIONS = ("D1", "D2", "D3", "D4")
 OBS_ORDER = ("image", "blind")

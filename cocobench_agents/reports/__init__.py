@@ -5,10 +5,10 @@ duplicate episodes) and writes Markdown and CSV tables, PNG plots (with matplotl
 `index.md`. See docs/reports.md.
 """
 
-from cocobench_agents.report.build import ReportSummary, build_report, compute_tables
-from cocobench_agents.report.load import NotARunFolder, ReportData, ReportError, load_runs
-from cocobench_agents.report.stats import Bootstrap, Estimate
-from cocobench_agents.report.table import Column, Table
+from cocobench_agents.reports.build import ReportSummary, build_report, compute_tables
+from cocobench_agents.reports.load import NotARunFolder, ReportData, ReportError, load_runs
+from cocobench_agents.reports.stats import Bootstrap, Estimate
+from cocobench_agents.reports.table import Column, Table
 
 __all__ = ["Bootstrap", "Column", "Estimate", "NotARunFolder", "ReportData", "ReportError",
            "ReportSummary", "Table", "build_report", "compute_tables", "load_runs"]

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cocobench_agents.report.load import ReportData, split_condition
-from cocobench_agents.report.table import Column, Table
-from cocobench_agents.report.tables import (
+from cocobench_agents.reports.load import ReportData, split_condition
+from cocobench_agents.reports.table import Column, Table
+from cocobench_agents.reports.tables import (
     Ctx,
     delta_cells,
     paired_indices,

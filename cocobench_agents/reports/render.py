@@ -14,10 +14,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from cocobench_agents.report.load import ReportData, RunInfo
-from cocobench_agents.report.stats import NA, Bootstrap, Estimate
-from cocobench_agents.report.table import KINDS, Column, Table
-from cocobench_agents.report.tables import infra_warnings
+from cocobench_agents.reports.load import ReportData, RunInfo
+from cocobench_agents.reports.stats import NA, Bootstrap, Estimate
+from cocobench_agents.reports.table import KINDS, Column, Table
+from cocobench_agents.reports.tables import infra_warnings
 
 NA_TEXT = "NA"
 

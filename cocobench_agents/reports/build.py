@@ -6,11 +6,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from cocobench_agents.report import diagnostics, paired, tables
-from cocobench_agents.report.load import ReportData, ReportError, load_runs
-from cocobench_agents.report.render import PlotEntry, index_markdown, to_csv, to_markdown
-from cocobench_agents.report.stats import Bootstrap
-from cocobench_agents.report.table import Table
+from cocobench_agents.reports import diagnostics, paired, tables
+from cocobench_agents.reports.load import ReportData, ReportError, load_runs
+from cocobench_agents.reports.render import PlotEntry, index_markdown, to_csv, to_markdown
+from cocobench_agents.reports.stats import Bootstrap
+from cocobench_agents.reports.table import Table
 
 #: Every table of the report, in the order of the index.
 TABLES: tuple[Callable[[tables.Ctx], Table], ...] = (
@@ -91,7 +91,7 @@ def build_report(runs: Sequence[str | Path], out: str | Path, *,
     elif shown is None:
         note = "No episodes, so no plots."
     else:
-        from cocobench_agents.report.plots import PlotsUnavailable, write_plots
+        from cocobench_agents.reports.plots import PlotsUnavailable, write_plots
 
         try:
             written = write_plots(made, out, shown)
