@@ -14,17 +14,17 @@ from typing import Any
 
 import orjson
 
-#: The key variable LiteLLM reads for a provider (kept in step with
-#: `litellm.validate_environment` by a test).
+#: The key variables LiteLLM reads for a provider, any one of which will do (kept in step
+#: with `litellm.validate_environment` by a test).
 KEY_VARIABLES = {
-    "openai": "OPENAI_API_KEY",
-    "anthropic": "ANTHROPIC_API_KEY",
-    "gemini": "GEMINI_API_KEY",
-    "mistral": "MISTRAL_API_KEY",
-    "groq": "GROQ_API_KEY",
-    "deepseek": "DEEPSEEK_API_KEY",
-    "xai": "XAI_API_KEY",
-    "openrouter": "OPENROUTER_API_KEY",
+    "openai": ("OPENAI_API_KEY",),
+    "anthropic": ("ANTHROPIC_API_KEY",),
+    "gemini": ("GEMINI_API_KEY", "GOOGLE_API_KEY"),
+    "mistral": ("MISTRAL_API_KEY",),
+    "groq": ("GROQ_API_KEY",),
+    "deepseek": ("DEEPSEEK_API_KEY",),
+    "xai": ("XAI_API_KEY",),
+    "openrouter": ("OPENROUTER_API_KEY",),
 }
 
 
@@ -52,7 +52,8 @@ def known_provider(model: str) -> str | None:
     return provider if isinstance(provider, str) else None
 
 
-def key_variable(model: str) -> str | None:
-    """The environment variable holding `model`'s key, for the common providers."""
+def key_variables(model: str) -> tuple[str, ...] | None:
+    """The environment variables that may hold `model`'s key (any one will do), for the
+    common providers; None for the others."""
     provider = known_provider(model)
     return KEY_VARIABLES.get(provider) if provider else None

@@ -20,7 +20,7 @@ from .errors import ModelConfigError
 from .litellm_client import LiteLLMClient, import_litellm
 from .openai_http import OPENAI_KEY_ENV, OPENAI_PREFIX, OpenAIHTTPClient, preload
 from .protocol import ModelClient
-from .providers import key_variable, known_provider
+from .providers import key_variables, known_provider
 from .remote import RemoteClient
 from .settings import ModelSettings, is_local_url
 
@@ -159,9 +159,9 @@ class ModelPool:
         """The provider's key variables that are not set (none when it cannot be told)."""
         if self.settings.transport == "http":
             return [] if os.environ.get(OPENAI_KEY_ENV) else [OPENAI_KEY_ENV]
-        variable = key_variable(spec)
-        if variable is not None:  # a common provider: no need to import LiteLLM to tell
-            return [] if os.environ.get(variable) else [variable]
+        variables = key_variables(spec)
+        if variables is not None:  # a common provider: no need to import LiteLLM to tell
+            return [] if any(os.environ.get(v) for v in variables) else [" or ".join(variables)]
         litellm = import_litellm()
         try:
             env = litellm.validate_environment(model=spec, api_base=self.settings.api_base)
