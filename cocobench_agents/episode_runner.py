@@ -50,6 +50,14 @@ class EpisodeSpec:
         (the episode then ends on the budget, never on LangGraph's recursion limit)."""
         return self.max_steps or self.config.budget or MAX_STEP_BUDGET
 
+    def controller(self) -> Controller | None:
+        """A simulator for `backend` (None for the embedded one: the Episode builds it)."""
+        if self.backend == "embedded":
+            return None
+        from benchmark_adapter.sim.backends import make_controller
+
+        return make_controller(self.config, self.backend)
+
     def model_for(self, agent: str | None) -> str:
         """The model string deciding for `agent` (None: the team's model)."""
         return self.models.get(agent or DEFAULT_MODEL_KEY) or self.models[DEFAULT_MODEL_KEY]

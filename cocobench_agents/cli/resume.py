@@ -72,8 +72,8 @@ def restore_options(kw: dict[str, Any], recorded: dict[str, Any],
         now = _recordable(name, kw[name])
         if name in SHAPING and now != value:
             raise click.UsageError(
-                f"--resume: {_flag(ctx, name)} {_show(now)} differs from the recorded run "
-                f"({_show(value)}); it changes what is sent or scored, so a resumed run keeps "
+                f"--resume: {_flag(ctx, name)} {show_value(now)} differs from the recorded run "
+                f"({show_value(value)}); it changes what is sent or scored, so a resumed run keeps "
                 "it: run without it, or into a new --out")
     return out
 
@@ -148,6 +148,7 @@ def _flag(ctx: click.Context, name: str) -> str:
     return name
 
 
-def _show(value: Any) -> str:
+def show_value(value: Any) -> str:
+    """`value` as short JSON, for messages."""
     text = json.dumps(value)
     return text if len(text) < 80 else text[:77] + "..."

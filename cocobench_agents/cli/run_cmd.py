@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import json
 import shlex
 import sys
 from typing import Any
@@ -12,7 +11,7 @@ import click
 
 from benchmark_adapter.sim.backends import check_backend
 from benchmark_adapter.tasks import select_tasks
-from cocobench_agents.cli.resume import recorded_options, restore_options
+from cocobench_agents.cli.resume import recorded_options, restore_options, show_value
 from cocobench_agents.cli.run_options import (
     backend_option,
     load_source,
@@ -345,13 +344,8 @@ def _same_as_recorded(request: dict[str, Any], record: dict[str, Any]) -> None:
     for key, value in current.items():
         if recorded.get(key) != value:
             raise click.UsageError(
-                f"--resume: {key} differ from the recorded run ({_short(recorded.get(key))} "
-                f"recorded, {_short(value)} asked); run with the same options or without them")
-
-
-def _short(value: Any) -> str:
-    text = json.dumps(value)
-    return text if len(text) < 80 else text[:77] + "..."
+                f"--resume: {key} differ from the recorded run ({show_value(recorded.get(key))} "
+                f"recorded, {show_value(value)} asked); run with the same options or without them")
 
 
 def _check_models(pool: ModelPool, models: list[str], agent_models: dict[str, str]) -> None:

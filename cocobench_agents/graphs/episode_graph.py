@@ -97,12 +97,7 @@ async def play(state: EpisodeState) -> dict[str, Any]:
 def _play(state: dict[str, Any], on_step: Callable[[dict[str, Any]], None]) -> dict[str, Any]:
     spec = episode_spec(state)  # type: ignore[arg-type]
     load_prompt_suite(spec.prompt_suite)  # read now, before the episode's event loop starts
-    controller = None
-    if spec.backend != "embedded":
-        from benchmark_adapter.sim.backends import make_controller
-
-        controller = make_controller(spec.config, spec.backend)
-    document, result = asyncio.run(_run(spec, controller, on_step))
+    document, result = asyncio.run(_run(spec, spec.controller(), on_step))
     return {"result": {**result.model_dump(mode="json"), "model": spec.model_for(None)},
             "trajectory": trajectory_summary(document)}
 

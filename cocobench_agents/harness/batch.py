@@ -68,9 +68,8 @@ async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactor
     key, spec = planned.key, planned.spec
     started = time.perf_counter()
     try:
-        controller = _controller(spec)
         document, result = await asyncio.wait_for(
-            run_episode(spec, pool, controller=controller), timeout_s)
+            run_episode(spec, pool, controller=spec.controller()), timeout_s)
     except Exception as exc:  # noqa: BLE001 - one broken episode must not stop the run
         elapsed = time.perf_counter() - started
         error = redact(repr(exc), _secrets(pool))
@@ -102,11 +101,3 @@ def _secrets(pool: ClientFactory) -> list[str]:
     """The credentials the pool's settings carry (inline keys, URL passwords), to scrub."""
     settings = getattr(pool, "settings", None)
     return settings.secrets() if settings is not None else []
-
-
-def _controller(spec):
-    if spec.backend == "embedded":
-        return None  # the Episode builds its own embedded world
-    from benchmark_adapter.sim.backends import make_controller
-
-    return make_controller(spec.config, spec.backend)

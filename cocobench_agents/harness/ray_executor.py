@@ -28,7 +28,7 @@ from cocobench_agents.harness.ray_limit import limiter_actor
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
 from cocobench_agents.harness.ray_worker import EpisodeWorker, unity_died
 from cocobench_agents.harness.store import EpisodeKey, RunFolder
-from cocobench_agents.harness.workers import WorkerError, _share, available_cores
+from cocobench_agents.harness.workers import WorkerError, available_cores, share
 from cocobench_agents.models import ModelSettings, redact
 
 WAIT_S = 0.5  # the driver wakes this often, so Ctrl-C is handled promptly
@@ -80,7 +80,7 @@ def fleet_shape(resources: Mapping[str, float], *, backend: str, jobs: int, work
         raise RayUnavailable("the Ray cluster has no CPU to run workers on")
     if backend != "ai2thor":
         count = max(1, min(workers or cpus, cpus, jobs, episodes))
-        return FleetShape(tuple(_share(jobs, i, count) for i in range(count)))
+        return FleetShape(tuple(share(jobs, i, count) for i in range(count)))
     fit = cpus
     if thor_gpus_per_worker > 0:
         gpus = float(resources.get("GPU", 0))

@@ -166,9 +166,6 @@ class RunFolder:
             raise RunFolderError(f"{path}: not a run record (a JSON object)")
         return record
 
-    def update_run_record(self, record: dict[str, Any]) -> None:
-        write_json_atomic(self.path / RUN_FILE, record)
-
     def write_trajectory(self, key: EpisodeKey, document: dict[str, Any]) -> str:
         """Write an episode's trajectory (its `PROMPTS_FIELD` to the episode's compressed
         prompt file); return its path relative to the run folder."""

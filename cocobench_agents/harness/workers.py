@@ -56,7 +56,7 @@ def execute_in_workers(episodes: Sequence[PlannedEpisode], folder: RunFolder,
             process = context.Process(
                 target=_work, name=f"cocobench-worker-{index}", daemon=True,
                 args=(episodes[index::workers], folder.path, _share_settings(settings, index,
-                      workers), _share(jobs, index, workers), send, run_options))
+                      workers), share(jobs, index, workers), send, run_options))
             process.start()
             send.close()  # the worker holds the only sending end: EOF means it has ended
             running[receive] = process
@@ -105,14 +105,14 @@ def _work(episodes: list[PlannedEpisode], folder_path: Path, settings: ModelSett
     send.close()
 
 
-def _share(total: int, index: int, parts: int) -> int:
+def share(total: int, index: int, parts: int) -> int:
     """Worker `index`'s part of `total` (parts differ by at least one, never below one)."""
     return max(1, total // parts + (1 if index < total % parts else 0))
 
 
 def _share_settings(settings: ModelSettings, index: int, parts: int) -> ModelSettings:
     return dataclasses.replace(
-        settings, max_concurrency=_share(settings.max_concurrency, index, parts))
+        settings, max_concurrency=share(settings.max_concurrency, index, parts))
 
 
 def _context() -> multiprocessing.context.BaseContext:

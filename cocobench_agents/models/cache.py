@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import hashlib
 import json
-import os
-import tempfile
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
+
+from benchmark_adapter.trajectory import write_json_atomic
 
 from .protocol import ModelReply
 
@@ -103,8 +102,6 @@ class ResponseCache:
             return None
 
     def _write(self, key: str, reply: ModelReply, *, model: str, sample_index: int) -> Path:
-        target = self.path(key)
-        target.parent.mkdir(parents=True, exist_ok=True)
         record = {
             "format": CACHE_FORMAT,
             "key": key,
@@ -112,13 +109,6 @@ class ResponseCache:
             "sample_index": sample_index,
             "reply": {**dataclasses.asdict(reply), "cached": False},
         }
-        fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".tmp", dir=target.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump(record, fh, ensure_ascii=False)
-            os.replace(tmp, target)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
-        return target
+        # Atomic (temporary file, then rename): concurrent writers of one key leave one whole
+        # file, and a reader never sees a part of one.
+        return write_json_atomic(self.path(key), record)

@@ -21,7 +21,7 @@ from cocobench_agents.harness import (
     pending_episodes,
     plan_episodes,
 )
-from cocobench_agents.harness.workers import _share, _share_settings
+from cocobench_agents.harness.workers import _share_settings, share
 from cocobench_agents.models import ModelPool, ModelSettings
 
 
@@ -59,7 +59,7 @@ def test_a_dead_worker_is_reported_and_the_rest_is_kept(tmp_path):
 
 
 def test_jobs_and_model_limits_are_shared_out():
-    assert [_share(10, i, 3) for i in range(3)] == [4, 3, 3]
-    assert [_share(1, i, 2) for i in range(2)] == [1, 1]  # never below one
+    assert [share(10, i, 3) for i in range(3)] == [4, 3, 3]
+    assert [share(1, i, 2) for i in range(2)] == [1, 1]  # never below one
     settings = ModelSettings(max_concurrency=16)
     assert [_share_settings(settings, i, 2).max_concurrency for i in range(2)] == [8, 8]
