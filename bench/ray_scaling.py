@@ -6,11 +6,18 @@ Ray started once (its start is printed apart). Each line gives the wall time and
 to the ideal (total model time / J), the Ray workers' start-up (a new process importing the
 planner stack, each run) included. Prints medians over --repeats runs.
 
+``--part nodes`` measures the fleet following the cluster instead, on a Ray cluster of
+one-CPU nodes on this machine (`ray.cluster_utils`, loopback, token authentication): a
+node SIGKILLed once it has run an episode (seconds until its lost episodes run on another
+node), and a node added once the run is under way on the head alone (seconds until an episode
+starts on it); --jobs 4, the first 16 episodes.
+
 (Named ray_scaling.py, not ray.py: a script's own folder comes first on sys.path, and a
 bench/ray.py would shadow the ray package.)
 
-Usage: python bench/ray_scaling.py [--episodes 64] [--jobs 32] [--max-steps 20]
-       [--workers 1 --workers 2 --workers 4] [--repeats 3] [--transport http|litellm]
+Usage: python bench/ray_scaling.py [--part scaling|nodes] [--episodes 64] [--jobs 32]
+       [--max-steps 20] [--workers 1 --workers 2 --workers 4] [--repeats 3]
+       [--transport http|litellm]
 """
 
 from __future__ import annotations
@@ -36,8 +43,11 @@ from cocobench_agents.harness import (
     plan_episodes,
 )
 from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
-from cocobench_agents.harness.ray_session import ray_session
+from cocobench_agents.harness.ray_local import _token
+from cocobench_agents.harness.ray_session import _reload_ray_config, ray_session
 from cocobench_agents.models import ModelPool, ModelSettings
+
+NODE_JOBS, NODE_EPISODES = 4, 16
 
 
 def one_run(planned, settings: ModelSettings, jobs: int, workers: int | None
@@ -60,8 +70,94 @@ def one_run(planned, settings: ModelSettings, jobs: int, workers: int | None
     return wall, sum(r["usage"]["model_calls"] for r in records)
 
 
+def nodes(planned, settings: ModelSettings, repeats: int) -> None:
+    """Seconds from a node's death until its episodes run on another node, and from a node
+    joining until it runs an episode (medians, with the range)."""
+    # The cluster's nodes inherit these: token authentication with this driver's token, and
+    # addresses on loopback (read when Ray is first imported).
+    os.environ.update({"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": _token(),
+                       "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"})
+    from ray.cluster_utils import Cluster
+
+    _reload_ray_config()
+    cluster = Cluster(initialize_head=True,
+                      head_node_args={"num_cpus": 1, "include_dashboard": False})
+    try:
+        lost = [_lose_a_node(cluster, planned, settings) for _ in range(repeats)]
+        joined = [_add_a_node(cluster, planned, settings) for _ in range(repeats)]
+    finally:
+        cluster.shutdown()
+    print(f"{len(planned)} episodes, --jobs {NODE_JOBS}, one-CPU nodes, median of {repeats}:")
+    for label, figures in (("a lost node's episodes run on another node after", lost),
+                           ("a node that joins starts its first episode after", joined)):
+        print(f"  {label} {statistics.median(figures):.1f} s (range {min(figures):.1f}–"
+              f"{max(figures):.1f} s; load average {os.getloadavg()[0]:.1f})")
+
+
+def _lose_a_node(cluster, planned, settings: ModelSettings) -> float:
+    """Kill a node (SIGKILL of its raylet and workers) once it has run an episode; seconds
+    until the last of its episodes started on the head."""
+    node = cluster.add_node(num_cpus=1)
+    killed: list[float] = []
+    rerun: list[float] = []
+
+    def on_result(record: dict) -> None:
+        now = time.perf_counter()
+        if record["node"] == node.node_id and not killed:
+            cluster.remove_node(node, allow_graceful=False)
+            killed.append(time.perf_counter())
+        elif record.get("requeued"):
+            rerun.append(now - record["elapsed_s"])  # when it started, on the worker's clock
+
+    _run_on(cluster, planned, settings, on_result)
+    _wait_until_gone(cluster, node.node_id)
+    return max(rerun) - killed[0]
+
+
+def _add_a_node(cluster, planned, settings: ModelSettings) -> float:
+    """Add a node once the run has recorded an episode on the head alone; seconds until an
+    episode starts on it (the run stops dispatching then)."""
+    joined: list[tuple[object, float]] = []
+    first: list[float] = []
+
+    class FirstEpisodeThere:  # stands in for the spend limit
+        def reached(self) -> bool:
+            return bool(first)
+
+    def on_result(record: dict) -> None:
+        now = time.perf_counter()
+        if not joined:
+            # Cluster.add_node returns once Ray has registered the node.
+            joined.append((cluster.add_node(num_cpus=1), time.perf_counter()))
+        elif record["node"] == joined[0][0].node_id and not first:
+            first.append(now - record["elapsed_s"])
+
+    _run_on(cluster, planned * 15, settings, on_result, limit=FirstEpisodeThere())
+    node, added = joined[0]
+    cluster.remove_node(node)
+    _wait_until_gone(cluster, node.node_id)
+    return first[0] - added
+
+
+def _run_on(cluster, planned, settings: ModelSettings, on_result, **options) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = RunFolder(Path(tmp) / "run")
+        folder.create({"name": "bench"})
+        execute_on_ray(planned, folder, settings, jobs=NODE_JOBS,
+                       options=RayOptions(address=cluster.address), on_result=on_result,
+                       **options)
+
+
+def _wait_until_gone(cluster, node_id: str) -> None:
+    # Ray declares a killed node dead after its health checks fail (about 15 s); a node it
+    # still counts would enlarge the next run's first fleet.
+    while any(n["NodeID"] == node_id and n["Alive"] for n in cluster.global_state.node_table()):
+        time.sleep(0.2)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--part", default="scaling", choices=["scaling", "nodes"])
     parser.add_argument("--episodes", type=int, default=64)
     parser.add_argument("--jobs", type=int, default=32)
     parser.add_argument("--max-steps", type=int, default=20)
@@ -81,6 +177,9 @@ def main() -> None:
         settings = ModelSettings(api_base=url, max_concurrency=args.jobs, timeout_s=30,
                                  transport=args.transport)
         ModelPool(settings).validate("openai/bench")
+        if args.part == "nodes":
+            nodes(planned[:NODE_EPISODES], settings, args.repeats)
+            return
         print(f"{len(planned)} episodes, --jobs {args.jobs}, calls of {args.delay * 1e3:.0f} ms"
               f" (--transport {args.transport}), median of {args.repeats}:")
         report("local executor", [one_run(planned, settings, args.jobs, None)

@@ -12,18 +12,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from benchmark_adapter.tasks.config import TaskConfig
+from benchmark_adapter.vocabulary import AFFORDANCE_FLAGS
 
-AFFORDANCE_FLAGS = (
-    "pickupable",
-    "receptacle",
-    "openable",
-    "toggleable",
-    "sliceable",
-    "dirtyable",
-    "canFillWithLiquid",
-    "breakable",
-    "moveable",
-)
 EXPLORE_DIRECTIONS = (
     "forward",
     "back",

@@ -14,6 +14,11 @@ import orjson
 from benchmark_adapter.tasks.config import TaskConfig
 
 # Integer keys become strings, as json.dumps makes them.
+#: A field of our trajectories (beyond the reference's): the text of the prompts that its
+#: planner decisions name by `prompt_hash`. A run folder keeps them in a compressed file of
+#: the episode's own instead.
+PROMPTS_FIELD = "prompts"
+
 _ORJSON_OPTIONS = orjson.OPT_INDENT_2 | orjson.OPT_NON_STR_KEYS
 
 # Object fields the reference records per step, plus isOpen/isSliced (harmless extras that

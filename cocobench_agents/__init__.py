@@ -1,8 +1,11 @@
 """cocobench-agents: benchmark any LLM or VLM as a multi-agent household planner on CoCoBench.
 
 The Python API (loaded on first use, so that importing the package stays cheap):
-`evaluate` / `evaluate_async` run what ``cocobench run`` runs; `score` rescores a trajectory;
-`report` writes the paper's tables; `load_tasks` reads suites, files and folders.
+`run(RunRequest(...))` / `run_async` run a typed request (what ``cocobench run`` builds from
+its flags, config file and environment); `plan(request)` says what it would cost without
+calling a model; `evaluate` / `evaluate_async` build the request from keywords and run it;
+`score` rescores a trajectory; `report` writes the paper's tables; `load_tasks` reads
+suites, files and folders.
 """
 
 from __future__ import annotations
@@ -10,12 +13,22 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-__version__ = "0.1.0"
+from cocobench_agents.version import __version__
 
 _EXPORTS = {
     "evaluate": "cocobench_agents.api", "evaluate_async": "cocobench_agents.api",
     "score": "cocobench_agents.api", "report": "cocobench_agents.api",
-    "EvalResults": "cocobench_agents.api", "EvaluationError": "cocobench_agents.api",
+    "EvaluationError": "cocobench_agents.api",
+    "RunRequest": "cocobench_agents.engine.request",
+    "ModelSettings": "cocobench_agents.models.settings",
+    "ExecutionSettings": "cocobench_agents.engine.request",
+    "Limits": "cocobench_agents.engine.request",
+    "TaskSelection": "cocobench_agents.engine.request",
+    "run": "cocobench_agents.engine.run", "run_async": "cocobench_agents.engine.run",
+    "plan": "cocobench_agents.engine.dry_run",
+    "EvalResults": "cocobench_agents.engine.results",
+    "RequestError": "cocobench_agents.engine.errors",
+    "RunStopped": "cocobench_agents.engine.errors",
     "load_tasks": "benchmark_adapter.tasks",
 }
 __all__ = ["__version__", *sorted(_EXPORTS)]

@@ -9,30 +9,27 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import click
+from pydantic import ValidationError
 
-#: `run_options` that `evaluate` sets from its own arguments.
-_OWN = frozenset({"tasks", "suite", "models", "conditions", "planner", "planners", "obs_mode",
-                  "prompt_suite", "prompt_suites", "out"})
+from cocobench_agents.engine.errors import is_user_error
+from cocobench_agents.engine.request import RunRequest, leaf_paths, nest
+from cocobench_agents.engine.results import EvalResults
+
+#: `evaluate` keywords named as the command line's options, where the request's field has
+#: another name.
+_ALIASES = {"timeout": "timeout_s", "extra": "extra_params", "extra_json": "extra_params",
+            "task_id": "task_ids", "cache": "cache_dir", "obs_mode": "obs_modes",
+            "planner": "planners", "prompt_suite": "prompt_suites", "model": "models"}
+#: Keywords of the call, not of the request.
+_CALL = ("resume", "retry_errors")
+
+__all__ = ["EvalResults", "EvaluationError", "evaluate", "evaluate_async", "report",
+           "request_of", "score"]
 
 
 class EvaluationError(ValueError):
     """What `cocobench run` would report as a mistake (exit 2): a bad option, an unusable
     task config, model or run folder (the original error is its ``__cause__``)."""
-
-
-class EvalResults(list):
-    """The result lines of a run (one dict per episode, the fields of ``results.jsonl``).
-
-    `folder` is the run folder; `errors` counts episodes that the model's infrastructure or
-    the harness ended; `stopped` says why the run did not finish every episode (a spend
-    limit), or is None.
-    """
-
-    def __init__(self, records: list[dict[str, Any]], folder: Path, errors: int,
-                 stopped: str | None) -> None:
-        super().__init__(records)
-        self.folder, self.errors, self.stopped = folder, errors, stopped
 
 
 def evaluate(source: str | Path | Sequence[str | Path] | None = None, *,
@@ -47,34 +44,30 @@ def evaluate(source: str | Path | Sequence[str | Path] | None = None, *,
 
     `planners` (names, ``FILE.py:NAME`` or ``module:NAME``) run each planner under the
     observation modes of `conditions`; `prompt_suites` (names or folders, ``+variant``s) are
-    arms crossed with models and conditions. Any other option of ``cocobench run`` is a
-    keyword: ``max_steps=10``, ``resume=True``, ``jobs=4``, ``api_base="http://…"``.
+    arms crossed with models and conditions. Any other setting of a run is a keyword, named
+    as its field or its option: ``max_steps=10``, ``jobs=4``, ``api_base="http://…"``;
+    ``resume=True`` and ``retry_errors=True`` complete a recorded run.
     """
-    from cocobench_agents.cli import is_user_error
-    from cocobench_agents.cli.run_cmd import run_command
+    from cocobench_agents.engine.run import run
     from cocobench_agents.graphs.plugins import forget_user_planners
 
     forget_user_planners()  # a strategy file edited since the last call is read afresh
-
-    argv = run_arguments(source, models=models, out=out, conditions=conditions,
-                         planners=planners, prompt_suites=prompt_suites,
-                         options=run_options, command=run_command)
-    stopped = None
+    call = {name: bool(run_options.pop(name, False)) for name in _CALL}
     try:
-        run_command.main(args=argv, prog_name="cocobench run", standalone_mode=False)
-    except click.ClickException as exc:
-        if exc.exit_code == 3:  # a spend limit: what ran is recorded
-            stopped = exc.format_message()
-        elif exc.exit_code != 1:  # 1: episodes ended on errors, counted below
-            raise EvaluationError(exc.format_message()) from None
-    except click.exceptions.Exit as exc:
-        if exc.exit_code:
-            raise EvaluationError(f"cocobench run exited with {exc.exit_code}") from None
+        request = request_of(source, models=models, out=out, conditions=conditions,
+                             planners=planners, prompt_suites=prompt_suites, **run_options)
+        results = run(request, **call)
+    except ValidationError as exc:
+        raise EvaluationError(_validation_lines(exc)) from exc
     except Exception as exc:
         if not is_user_error(exc):
             raise
         raise EvaluationError(str(exc)) from exc  # the error the command reports, exit 2
-    return collect_results(Path(out), stopped)
+    if results.errors:
+        warnings.warn(f"{results.errors} episodes of {out} ended on infrastructure errors; "
+                      "re-run them with evaluate(..., resume=True, retry_errors=True)",
+                      stacklevel=2)
+    return results
 
 
 async def evaluate_async(source: str | Path | Sequence[str | Path] | None = None,
@@ -84,48 +77,34 @@ async def evaluate_async(source: str | Path | Sequence[str | Path] | None = None
     return await asyncio.to_thread(evaluate, source, **kwargs)
 
 
-def run_arguments(source: Any, *, models: Any, out: Any, conditions: Any, planners: Any,
-                  prompt_suites: Any, options: dict[str, Any],
-                  command: click.Command) -> list[str]:
-    """The ``cocobench run`` arguments that `evaluate` stands for."""
-    params = {p.name: p for p in command.params if isinstance(p, click.Option)}
-    argv = ["--out", str(out)]
-    for model in _listed(models):
-        argv += ["--model", model]
-    sources = _listed(source)
-    if len(sources) == 1:
-        argv += ["--suite", sources[0]]
-    for path in sources if len(sources) > 1 else []:
-        argv += ["--task", path]
+def request_of(source: Any = None, *, models: Any, out: Any, conditions: Any = "C0_image",
+               planners: Any = None, prompt_suites: Any = None, **options: Any) -> RunRequest:
+    """The `RunRequest` that `evaluate` stands for (`TypeError` for an unknown keyword)."""
     names = [c for part in _listed(conditions) for c in part.split(",") if c]
+    given: dict[str, Any] = {"out": out, "models": _listed(models)}
+    if source is not None:
+        given["sources"] = _listed(source)
     if planners:  # planner arms: each planner under the observation modes of `conditions`
-        for planner in _listed(planners):
-            argv += ["--planner", planner]
-        for mode in dict.fromkeys(c.rpartition("_")[2] for c in names):
-            argv += ["--obs", mode]
+        given["planners"] = _listed(planners)
+        given["obs_modes"] = list(dict.fromkeys(c.rpartition("_")[2] for c in names))
     else:
-        argv += ["--conditions", ",".join(names)]
-    for suite in _listed(prompt_suites):
-        argv += ["--prompt-suite", suite]
+        given["conditions"] = names
+    if prompt_suites:
+        given["prompt_suites"] = _listed(prompt_suites)
     for name, value in options.items():
-        if name in _OWN or name not in params:
-            raise TypeError(f"evaluate() has no option {name!r} (see `cocobench run --help`)")
-        argv += _option(params[name], value)
-    return argv
+        if name == "no_preflight":
+            name, value = "preflight", not value
+        name = _ALIASES.get(name, name)
+        if name not in leaf_paths() or name in given:
+            raise TypeError(f"evaluate() has no option {name!r} (see `cocobench run --help` "
+                            "and cocobench_agents.RunRequest)")
+        given[name] = value
+    return RunRequest.model_validate(nest(given))
 
 
-def collect_results(out: Path, stopped: str | None = None) -> EvalResults:
-    """The latest result line of every episode recorded in run folder `out`."""
-    from cocobench_agents.harness import RunFolder
-    from cocobench_agents.harness.infra import count_infra_failures
-    from cocobench_agents.harness.summary import latest
-
-    records = latest(RunFolder(out).results())
-    errors = count_infra_failures(records)
-    if errors:
-        warnings.warn(f"{errors} episodes of {out} ended on infrastructure errors; re-run "
-                      "them with evaluate(..., resume=True, retry_errors=True)", stacklevel=3)
-    return EvalResults(records, out, errors, stopped)
+def _validation_lines(exc: ValidationError) -> str:
+    return "\n".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}"
+                     for e in exc.errors(include_url=False))
 
 
 def score(trajectory: str | Path) -> Any:
@@ -150,13 +129,3 @@ def _listed(value: Any) -> list[str]:
     if isinstance(value, (str, Path)):
         return [str(value)]
     return [str(v) for v in value]
-
-
-def _option(param: click.Option, value: Any) -> list[str]:
-    flag = max(param.opts, key=len)
-    if param.is_flag:
-        return [flag] if value else []
-    if value is None:
-        return []
-    values = value if param.multiple and not isinstance(value, str) else [value]
-    return [part for v in values for part in (flag, str(v))]

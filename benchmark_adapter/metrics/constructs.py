@@ -58,6 +58,29 @@ class ConstructScore:
 
 
 @dataclass(frozen=True)
+class ConstructEvidence:
+    """What the formula of a trajectory's own dimension sees, landed step by landed step and
+    without the gate: for drawing the mechanism (the viewer), never for scoring.
+
+    ``history[k]`` is the formula's evidence after the first k + 1 landed steps, ``{}`` while
+    the mechanism has not been exercised (the formula is undefined there). The other fields
+    are the mechanism the formula watches, empty for the other dimensions: D2's containers;
+    D3's exclusion mode (``shared_tool``, ``station`` or ``competitive``) and its keys
+    (resource ids or lock skills); D4's declared buffers, their capacity and their occupancy
+    after each landed step (none declared: no buffer fields).
+    """
+
+    dim: str
+    history: tuple[dict[str, Any], ...]
+    containers: tuple[str, ...] = ()
+    exclusion_mode: str = ""
+    exclusion_keys: frozenset[str] = frozenset()
+    buffer_ids: tuple[str, ...] = ()
+    buffer_capacity: float | None = None
+    buffer_occupancy: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
 class _Episode:
     config: Mapping[str, Any]
     constraints: Mapping[str, Any]
@@ -361,13 +384,65 @@ def _gate(dim: str, ep: _Episode) -> ConstructScore:
 
 def construct_score(traj: Mapping[str, Any]) -> ConstructScore:
     """The construct score for the config's own ``coordination_dim``."""
+    return _gate(_own_dim(traj), _episode(traj))
+
+
+def _own_dim(traj: Mapping[str, Any]) -> str:
     dim = task_config(traj).get("coordination_dim")
     if not isinstance(dim, str) or not dim:
         raise TrajectoryError("task_config.coordination_dim", "missing or not a string")
-    return _gate(dim, _episode(traj))
+    return dim
 
 
 def cross_construct_scores(traj: Mapping[str, Any]) -> dict[str, ConstructScore]:
     """All four construct scores applied to one trajectory, each with its own gating."""
     ep = _episode(traj)
     return {dim: _gate(dim, ep) for dim in DIMENSIONS}
+
+
+# ---- evidence over time --------------------------------------------------------------------
+
+
+def construct_evidence(traj: Mapping[str, Any]) -> ConstructEvidence:
+    """The evidence of the config's own ``coordination_dim`` (one of `DIMENSIONS`) after each
+    landed step, and the mechanism it watches (`ConstructEvidence`). Raises `TrajectoryError`
+    for a trajectory lacking what the formula needs (D4: every step's object state)."""
+    dim = _own_dim(traj)
+    if dim not in _DIMS:
+        raise TrajectoryError("task_config.coordination_dim",
+                              f"{dim!r} is not one of {', '.join(DIMENSIONS)}")
+    ep = _episode(traj)
+    sample, formula = _DIMS[dim]
+    history = []
+    for k in range(1, len(ep.steps) + 1):
+        prefix = _Episode(ep.config, ep.constraints, ep.steps[:k], ep.categories[:k])
+        history.append(formula(prefix)[1] if sample(prefix) > 0 else {})
+    return ConstructEvidence(dim, tuple(history), **_MECHANISMS[dim](ep))
+
+
+def _d2_mechanism(ep: _Episode) -> dict[str, Any]:
+    return {"containers": tuple(_container_ids(ep.config))}
+
+
+def _d3_mechanism(ep: _Episode) -> dict[str, Any]:
+    mode, keys = _d3_mode(ep.constraints)
+    return {"exclusion_mode": mode, "exclusion_keys": keys}
+
+
+def _d4_mechanism(ep: _Episode) -> dict[str, Any]:
+    buffers = _buffers(ep.constraints)
+    if not buffers:
+        return {}
+    ids = {str(b["objectId"]) for b in buffers}
+    return {"buffer_ids": tuple(sorted(ids)),
+            "buffer_capacity": max(_capacity(b) for b in buffers),
+            "buffer_occupancy": tuple(_occupancy(s, ids) for s in ep.steps)}
+
+
+_MECHANISMS: dict[str, Callable[[_Episode], dict[str, Any]]] = {
+    "D1": lambda _ep: {},  # the mechanism is the steps themselves: each agent's load
+    "D2": _d2_mechanism,
+    "D3": _d3_mechanism,
+    "D4": _d4_mechanism,
+}
+

@@ -12,6 +12,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from benchmark_adapter.vocabulary import SKILL_NAMES
+
 from .errors import TrajectoryError
 
 #: Step categories, in the order the reference tests them (first match wins).
@@ -53,24 +55,7 @@ INTRINSIC_PRECONDITION_MARKERS: tuple[str, ...] = (
 )
 #: Skills that act on an object; a failure of one of these with no known marker
 #: is a precondition violation, any other failure (Find/Explore) an action failure.
-INTERACTION_SKILLS: frozenset[str] = frozenset(
-    {
-        "PickUp",
-        "Put",
-        "Drop",
-        "Open",
-        "Close",
-        "ToggleOn",
-        "ToggleOff",
-        "Slice",
-        "CleanObject",
-        "FillObjectWithLiquid",
-        "EmptyLiquidFromObject",
-        "PushObject",
-        "PullObject",
-        "BreakObject",
-    }
-)
+INTERACTION_SKILLS: frozenset[str] = frozenset(SKILL_NAMES) - {"Find", "Explore", "Wait"}
 
 
 def has_marker(text: str | None, markers: tuple[str, ...]) -> bool:

@@ -130,6 +130,7 @@ def _push(action: str) -> Skill:
     return skill
 
 
+# One implementation for each of `vocabulary.SKILL_NAMES` (what task checks accept), in order.
 SKILLS: dict[str, Skill] = {
     "Find": _find,
     "Explore": _explore,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 
-from benchmark_adapter.skills import SKILLS
+from benchmark_adapter.vocabulary import SKILL_NAMES
 
 from .config import GoalPredicate, TaskConfig
 
@@ -78,9 +78,9 @@ def _skills(task: TaskConfig) -> Iterator[Problem]:
         (f"agents.{i}.allowed_skills", agent.allowed_skills) for i, agent in enumerate(task.agents)
     ]
     for field, skills in lists:
-        unknown = [s for s in skills if s not in SKILLS]
+        unknown = [s for s in skills if s not in SKILL_NAMES]
         if unknown:
-            yield field, f"unknown skill {unknown[0]!r} (known: {', '.join(SKILLS)})"
+            yield field, f"unknown skill {unknown[0]!r} (known: {', '.join(SKILL_NAMES)})"
 
 
 def _goals(task: TaskConfig) -> Iterator[Problem]:

@@ -8,7 +8,9 @@ from pathlib import Path
 
 import click
 
-from cocobench_agents import __version__
+from cocobench_agents.engine.errors import USER_ERRORS as ENGINE_USER_ERRORS
+from cocobench_agents.engine.errors import is_user_error as is_engine_user_error
+from cocobench_agents.version import __version__
 
 USAGE_ERROR = 2
 
@@ -41,20 +43,9 @@ SUMMARIES = {
     "view": "Browse run folders in a browser (live), or export them as static pages.",
 }
 
-# Mistakes in what the user asked for: reported in one line, exit code 2, no traceback.
-# By module and name, so that checking an error imports nothing new.
-USER_ERRORS = {
-    "benchmark_adapter.tasks.errors": "TaskConfigError",
-    "benchmark_adapter.sim.thor.errors": "ThorUnavailable",
-    "cocobench_agents.models.errors": "ModelConfigError",
-    "cocobench_agents.models.preflight": "PreflightError",
-    "cocobench_agents.harness.store": "RunFolderError",
-    "cocobench_agents.harness.run_lock": "RunLocked",
-    "cocobench_agents.harness.plan": "PlanError",
-    "cocobench_agents.prompts.suite": "PromptSuiteError",
-    "cocobench_agents.graphs.registry": "PlannerError",
-    "cocobench_agents.viewer.errors": "ViewerError",
-}
+# Mistakes in what the user asked for: reported in one line, exit code 2, no traceback (the
+# engine's, and the viewer's).
+USER_ERRORS = {**ENGINE_USER_ERRORS, "cocobench_agents.viewer.errors": "ViewerError"}
 
 
 class LazyGroup(click.Group):
@@ -89,10 +80,8 @@ def cli() -> None:
 
 
 def is_user_error(exc: BaseException) -> bool:
-    """Whether `exc` reports a mistake in the user's input (its module is loaded if it was
-    raised)."""
-    return any(isinstance(exc, getattr(sys.modules[module], name))
-               for module, name in USER_ERRORS.items() if module in sys.modules)
+    """Whether `exc` reports a mistake in the user's input."""
+    return is_engine_user_error(exc, USER_ERRORS)
 
 
 def load_env_file(directory: Path | None = None) -> None:
@@ -121,7 +110,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         if not is_user_error(exc):
             raise
-        click.echo(f"cocobench: error: {exc}", err=True)
+        for line in str(exc).splitlines() or [""]:  # one line per problem, each prefixed
+            click.echo(f"cocobench: error: {line}", err=True)
         return USAGE_ERROR
     return code if isinstance(code, int) else 0
 

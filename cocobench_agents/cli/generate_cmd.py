@@ -19,7 +19,7 @@ from benchmark_adapter.generator import (
     write_suite,
 )
 from benchmark_adapter.sim.backends import check_backend
-from cocobench_agents.cli.run_options import backend_option, process_jobs_option
+from cocobench_agents.cli.options import backend_option, process_jobs_option
 from cocobench_agents.cli.tables import table
 
 HEADERS = ("task_type", "cell", "candidates", "kept", *GATES)

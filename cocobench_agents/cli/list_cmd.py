@@ -6,7 +6,7 @@ import json
 
 import click
 
-from cocobench_agents.cli.run_options import load_source, missing_option
+from cocobench_agents.cli.options import load_source, missing_option
 from cocobench_agents.cli.tables import table
 
 HEADERS = ("task_id", "cell", "family", "dim", "agents", "scene", "room", "budget")

@@ -8,7 +8,7 @@ import click
 
 from benchmark_adapter.sim.backends import check_backend
 from benchmark_adapter.validation import METRIC_GATE, validate_tasks
-from cocobench_agents.cli.run_options import (
+from cocobench_agents.cli.options import (
     backend_option,
     load_source,
     missing_option,

@@ -14,8 +14,8 @@ from typing import Any
 _EXPORTS = {
     # the registry, and planners from the researcher's code
     "PLANNERS": ".registry", "PlannerSpec": ".registry", "PlannerError": ".registry",
-    "UnknownPlanner": ".registry", "compiled_graph": ".registry", "planner_spec": ".registry",
-    "find_planner": ".registry", "lazy_builder": ".registry",
+    "UnknownPlanner": ".registry", "lazy_builder": ".registry",
+    "compiled_graph": ".lookup", "planner_spec": ".lookup", "find_planner": ".lookup",
     # what a strategy is made of
     "PlannerContext": ".context",
     "PlannerState": ".state", "TEAM": ".state", "team_history": ".state",

@@ -75,11 +75,9 @@ def load_planner(ref: str) -> LoadedPlanner:
 
 def forget_user_planners() -> None:
     """Load user planners afresh on next use (a notebook whose strategy file was edited);
-    a run keeps the code it was checked and recorded with, so never call this during one."""
-    from cocobench_agents.graphs.registry import _compiled
-
+    a run keeps the code it was checked and recorded with, so never call this during one.
+    Their graphs compile again too: a planner loaded afresh is a new spec."""
     _LOADED.clear()
-    _compiled.cache_clear()
 
 
 def find_user_planner(text: str) -> str | None:

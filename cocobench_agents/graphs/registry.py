@@ -1,5 +1,6 @@
-"""`PLANNERS`: the built-in coordination strategies by name; `planner_spec` resolves any
-planner reference (a built-in, an installed plugin, `FILE.py:NAME`, `module:NAME`).
+"""`PLANNERS`: the built-in coordination strategies by name, and what a planner is
+(`PlannerSpec`, `PlannerError`). `lookup.py` resolves any planner reference (a built-in, an
+installed plugin, `FILE.py:NAME`, `module:NAME`).
 
 A new strategy lives in the researcher's own file or package, not here (`plugins.py`,
 docs/planners.md).
@@ -7,7 +8,6 @@ docs/planners.md).
 
 from __future__ import annotations
 
-import functools
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -72,44 +72,3 @@ class PlannerError(ValueError):
 
 class UnknownPlanner(PlannerError):
     """A planner name that is neither built in nor registered by an installed package."""
-
-
-def planner_spec(name: str) -> PlannerSpec:
-    """The planner `name`: a built-in (`centralized`, …), a planner an installed package
-    registers (entry point group `cocobench.planners`), or code: `FILE.py:NAME` or
-    `package.module:NAME`. User code is loaded once per process, so worker processes resolve
-    the same string; the spec's `name` is the canonical reference (a file's absolute path)."""
-    spec = PLANNERS.get(name)
-    if spec is not None:
-        return spec
-    from cocobench_agents.graphs.plugins import load_planner
-
-    return load_planner(name).spec
-
-
-def find_planner(text: str) -> str | None:
-    """The canonical name of the planner that `text` names or whose condition code it is
-    (`C0`, `LW`, an installed plugin's code), or None; raises `PlannerError` for code that
-    fails to load."""
-    by_code = {spec.code: name for name, spec in PLANNERS.items()}
-    if text in by_code or text in PLANNERS:
-        return by_code.get(text, text)
-    from cocobench_agents.graphs.plugins import find_user_planner
-
-    return find_user_planner(text)
-
-
-def compiled_graph(name: str):
-    """The compiled graph of a planner (compiled once per process; no checkpointer)."""
-    return _compiled(planner_spec(name).name)
-
-
-@functools.cache
-def _compiled(name: str):
-    from langgraph.graph import StateGraph
-
-    graph = planner_spec(name).build()
-    if not isinstance(graph, StateGraph):
-        raise PlannerError(f"planner {name}: its build function returned a "
-                           f"{type(graph).__name__}, not a langgraph StateGraph")
-    return graph.compile()

@@ -2,11 +2,18 @@
 
 The driver stays the single writer of the run folder: workers return each episode's
 trajectory and result line, and the driver writes and appends them with the same
-`RunFolder` methods as a local run, so a folder written through Ray is indistinguishable from
-a local one (resume rules included). The driver keeps at most `jobs` episodes in flight,
-each worker at most its share; a worker that dies is replaced and its episodes are queued
-again, once; so is an AI2-THOR episode whose Unity died. Model calls hold a permit of the
-run's `ConcurrencyLimiter`, so `max_concurrency` is a limit per model across the cluster.
+`RunFolder` methods as a local run, so a folder written through Ray is the same as a local
+one (resume rules included) but for two fields of its result lines: ``node``, the Ray node
+that ran the episode, and ``requeued``, on an episode that was queued again.
+
+The fleet follows the cluster. Episodes wait in one queue, and every started worker takes
+from it, the least busy first, with at most `jobs` episodes in flight across the cluster. A
+worker that dies (its process, its node, its Unity) is dropped, and its episodes in flight go
+back to the front of the queue, once each. A new worker starts whenever Ray has room for one
+(a node that joined, resources set free), up to `workers`; the run never waits for one while
+another can take episodes, and stops (`WorkersLost`) when none has been alive for `wait_s`.
+Model calls hold a permit of the run's `ConcurrencyLimiter`, so `max_concurrency` is a limit
+per model across the cluster.
 
 Importing this module does not import Ray.
 """
@@ -21,17 +28,31 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from cocobench_agents.graphs import planner_spec
 from cocobench_agents.harness.batch import ResultCallback, infra_error_record, longest_first
+from cocobench_agents.harness.errors import (
+    WorkerEnvironmentError,
+    WorkerError,
+    WorkersLost,
+    fatal_model_error,
+)
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import limiter_actor
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
-from cocobench_agents.harness.ray_worker import EpisodeWorker, unity_died
+from cocobench_agents.harness.ray_worker import (
+    EpisodeWorker,
+    KeyVariables,
+    WorkerInfo,
+    run_key_variables,
+    unity_died,
+)
 from cocobench_agents.harness.store import EpisodeKey, RunFolder
-from cocobench_agents.harness.workers import WorkerError, available_cores, share
+from cocobench_agents.harness.workers import available_cores, share
 from cocobench_agents.models import ModelSettings, redact
 
-WAIT_S = 0.5  # the driver wakes this often, so Ctrl-C is handled promptly
+WAIT_S = 0.5  # the driver wakes this often: Ctrl-C, room for a worker, the wait_s clock
+GROW_EVERY_S = 1.0  # how often the driver asks Ray whether another worker would fit
 CLOSE_TIMEOUT_S = 30.0  # for workers to stop their Unity before they are killed
 
 
@@ -42,10 +63,13 @@ class RayOptions:
     * `address`: the cluster's head (``HOST:PORT``, or ``auto``); None starts a private local
       Ray with `local_cpus` CPUs (default: this machine's cores, at least `workers`) and
       `local_gpus` GPUs (default: those Ray detects).
-    * `workers`: worker actors; 0 = as many as the cluster's resources allow.
+    * `workers`: the most worker actors at once; 0 = as many as the cluster's resources allow
+      (and `jobs`), following the cluster as nodes join and leave.
     * `thor_gpus_per_worker`: the GPU share each AI2-THOR worker asks for (0: CPU nodes).
     * `runtime_env`: Ray's runtime environment of the run's workers (environment variables,
       a setup hook, …).
+    * `wait_s`: how long the run goes on with no worker alive (its nodes lost, no room for
+      another) before it stops with `WorkersLost` (``--ray-wait``).
     """
 
     address: str | None = None
@@ -54,11 +78,13 @@ class RayOptions:
     local_cpus: int | None = None
     local_gpus: float | None = None
     runtime_env: dict[str, Any] | None = None
+    wait_s: float = 300.0
 
 
 @dataclass(frozen=True)
 class FleetShape:
-    """The workers of a run: how many episodes each runs at once, what each asks Ray for."""
+    """The first workers of a run: how many episodes each runs at once, what each asks Ray
+    for."""
 
     capacities: tuple[int, ...]
     num_cpus: float = 1.0
@@ -68,6 +94,13 @@ class FleetShape:
         gpus = f", {self.num_gpus:g} GPU each" if self.num_gpus else ""
         return (f"{len(self.capacities)} Ray worker{'s' if len(self.capacities) > 1 else ''}"
                 f" ({sum(self.capacities)} episodes at once{gpus})")
+
+    def fits(self, resources: Mapping[str, float]) -> int:
+        """How many more workers `resources` (what Ray has free) would hold."""
+        count = int(resources.get("CPU", 0) / self.num_cpus + 1e-9)
+        if self.num_gpus:
+            count = min(count, int(resources.get("GPU", 0) / self.num_gpus + 1e-9))
+        return count
 
 
 def fleet_shape(resources: Mapping[str, float], *, backend: str, jobs: int, workers: int,
@@ -101,9 +134,16 @@ def execute_on_ray(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                    limit: SpendLimit | None = None,
                    episode_timeout_s: float | None = None) -> None:
     """Run every episode on Ray, appending each result as it arrives, then `on_result`;
-    `on_start(shape)` is told the fleet before the first episode. Once `limit` is reached no
-    further episode is dispatched; an episode running past `episode_timeout_s` ends as an
-    infrastructure error (as in a local run)."""
+    `on_start(shape)` is told the first fleet before the first episode. Once `limit` is
+    reached no further episode is dispatched; an episode running past `episode_timeout_s`
+    ends as an infrastructure error (as in a local run).
+
+    The run stops early, what finished recorded, with `WorkerError` (workers cannot start),
+    `WorkerEnvironmentError` (a worker's node lacks a key variable of the run), both before
+    any episode when the first fleet starts (after the episodes in flight, for a worker
+    that joins later); with `WorkersLost` when no worker has been alive for
+    `options.wait_s`; and with `FatalModelError` once the episodes in flight are recorded,
+    as a local run."""
     if not episodes:
         return
     local_cpus = options.local_cpus or max(available_cores(), options.workers)
@@ -118,83 +158,177 @@ def execute_on_ray(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                             episodes=len(episodes))
         if on_start is not None:
             on_start(shape)
-        run = _Run(folder, settings, shape, backend, on_result, limit, episode_timeout_s)
+        fleet = _Fleet(shape, backend, per_worker=1 if backend == "ai2thor" else jobs,
+                       most=min(options.workers or jobs, jobs),
+                       keys=run_key_variables(settings, _models(episodes)))
+        run = _Run(folder, settings, fleet, jobs=jobs, wait_s=options.wait_s,
+                   on_result=on_result, limit=limit, episode_timeout_s=episode_timeout_s)
         try:
-            run.start()
+            # As many as Ray can place now (a node still counted but just lost holds none);
+            # the others start once there is room.
+            run.start(min(len(shape.capacities),
+                          max(1, shape.fits(ray.available_resources()))))
             run.dispatch(longest_first(episodes))
         finally:
             run.stop()
 
 
-@dataclass
-class _Slot:
-    """A worker's place in the fleet; its actor is replaced when it dies."""
+def _models(episodes: Sequence[PlannedEpisode]) -> list[str]:
+    """The models the episodes call (the oracle's condition calls none)."""
+    calls: dict[str, bool] = {}
+    out: dict[str, None] = {}
+    for planned in episodes:
+        planner = planned.spec.planner
+        if planner not in calls:
+            calls[planner] = planner_spec(planner).uses_models
+        if calls[planner]:
+            out.update(dict.fromkeys(planned.spec.models.values()))
+    return list(out)
 
-    index: int
-    capacity: int
-    actor: Any = None
-    generation: int = 0
+
+@dataclass(frozen=True)
+class _Fleet:
+    """What every worker of the run is: its Ray resources and backend, the episodes it runs
+    at once at most (`per_worker`), how many there may be (`most`), the key variables its
+    node must have."""
+
+    shape: FleetShape
+    backend: str
+    per_worker: int
+    most: int
+    keys: KeyVariables
+
+
+@dataclass(eq=False)
+class _Worker:
+    """A worker actor: `info` once it has started; its permits are held as `holder`."""
+
+    actor: Any
+    holder: str
+    info: WorkerInfo | None = None
     busy: int = 0
-
-    @property
-    def holder(self) -> str:
-        return f"worker-{self.index}.{self.generation}"
 
 
 @dataclass
 class _InFlight:
     planned: PlannedEpisode
-    slot: _Slot
-    generation: int
+    worker: _Worker
     started: float = field(default_factory=time.perf_counter)
 
 
 class _Run:
     """The driver's side of a Ray run: the fleet, the queue, the single writer."""
 
-    def __init__(self, folder: RunFolder, settings: ModelSettings, shape: FleetShape,
-                 backend: str, on_result: ResultCallback | None,
-                 limit: SpendLimit | None = None, episode_timeout_s: float | None = None
-                 ) -> None:
+    def __init__(self, folder: RunFolder, settings: ModelSettings, fleet: _Fleet, *,
+                 jobs: int, wait_s: float, on_result: ResultCallback | None,
+                 limit: SpendLimit | None, episode_timeout_s: float | None) -> None:
         import ray
 
+        self.ray, self.folder, self.settings, self.fleet = ray, folder, settings, fleet
+        self.jobs, self.wait_s, self.on_result = jobs, wait_s, on_result
         self.limit, self.episode_timeout_s = limit, episode_timeout_s
-        self.ray, self.folder, self.settings, self.shape = ray, folder, settings, shape
-        self.backend = backend
-        self.on_result = on_result
-        self.slots = [_Slot(i, c) for i, c in enumerate(shape.capacities)]
+        self.actor_class = ray.remote(EpisodeWorker)
+        self.limiter: Any = None
+        self.launched = 0
+        self.starting: dict[Any, _Worker] = {}  # the `ready` call of each → the worker
+        self.workers: list[_Worker] = []  # started, and not known dead
         self.in_flight: dict[Any, _InFlight] = {}
         self.requeued: Counter[EpisodeKey] = Counter()
-        self.limiter: Any = None
+        self.halt: Exception | None = None  # why no further episode is dispatched
+        self.alone_since: float | None = None  # since when no worker has been alive
+        self.ever_alive = False
+        self.next_growth = 0.0
 
     # -- the fleet --------------------------------------------------------------------------
 
-    def start(self) -> None:
-        """Start the limiter and the workers; fail (nothing run yet) if a worker cannot."""
+    def start(self, count: int) -> None:
+        """Start the limiter and `count` workers, and wait (up to `wait_s`) until each has
+        started: a worker that cannot start, or whose node lacks a key, stops the run before
+        any episode. Workers still waiting for room after `wait_s` join when placed."""
         name = f"cocobench-limiter-{self.folder.path.name}-{uuid.uuid4().hex[:8]}"
         self.limiter = limiter_actor(self.settings.max_concurrency, name)
-        for slot in self.slots:
-            slot.actor = self._new_actor(slot)
+        for _ in range(count):
+            self._launch()
+        self.alone_since = time.monotonic()
+        while self.starting and time.monotonic() < self.alone_since + self.wait_s:
+            ready, _ = self.ray.wait(list(self.starting), num_returns=1, timeout=WAIT_S)
+            for ref in ready:
+                self._started(ref)
+            if self.halt is not None:
+                raise self.halt
+
+    def _launch(self) -> None:
+        self.launched += 1
+        holder = f"worker-{self.launched}"
+        actor = self.actor_class.options(
+            num_cpus=self.fleet.shape.num_cpus, num_gpus=self.fleet.shape.num_gpus,
+            max_concurrency=self.fleet.per_worker + 1,  # one more for close()
+        ).remote(self.settings, self.limiter, holder, self.fleet.backend, self.fleet.keys)
+        self.starting[actor.ready.remote()] = _Worker(actor, holder)
+
+    def _started(self, ref: Any) -> None:
+        """A worker answered `ready` (or failed to start)."""
+        worker = self.starting.pop(ref)
         try:
-            self.ray.get([slot.actor.ready.remote() for slot in self.slots])
-        except self.ray.exceptions.RayError as exc:
-            # The last line of a failed start is the error its __init__ raised.
-            raise WorkerError(f"Ray workers could not start: {_gist(exc, last=True)}") from None
+            info: WorkerInfo = self.ray.get(ref)
+        except self.ray.exceptions.RayActorError as exc:
+            self._kill(worker)
+            if exc.actor_init_failed:  # its __init__ raised: any worker of the run would
+                # The last line of a failed start is the error its __init__ raised.
+                self._stop_with(WorkerError(f"Ray workers could not start: "
+                                            f"{_gist(exc, last=True)}"))
+            return  # its node went away first: another takes its place when there is room
+        if info.missing:
+            self._kill(worker)
+            self._stop_with(WorkerEnvironmentError(info.missing, info.node, info.host))
+            return
+        worker.info = info
+        self.workers.append(worker)
+        self.ever_alive = True
 
-    def _new_actor(self, slot: _Slot) -> Any:
-        worker = self.ray.remote(EpisodeWorker).options(
-            name=None, num_cpus=self.shape.num_cpus, num_gpus=self.shape.num_gpus,
-            max_concurrency=slot.capacity + 1)  # one more for close()
-        return worker.remote(self.settings, self.limiter, slot.holder, self.backend)
+    def _grow(self, queued: int) -> None:
+        """Start workers for queued episodes where Ray has room (a node joined, a dead
+        worker's resources came free), a batch at a time: never a worker nothing can place
+        waiting alongside one being started."""
+        now = time.monotonic()
+        if self.halt is not None or self.starting or not queued or now < self.next_growth:
+            return
+        self.next_growth = now + GROW_EVERY_S
+        wanted = min(self.fleet.most - len(self.workers), queued)
+        if wanted > 0:
+            for _ in range(min(wanted, self.fleet.shape.fits(self.ray.available_resources()))):
+                self._launch()
 
-    def _replace(self, slot: _Slot, *, graceful: bool) -> None:
-        old = slot.actor
-        self.limiter.release_holder.remote(slot.holder)
-        slot.generation += 1
-        slot.busy = 0
-        slot.actor = self._new_actor(slot)
+    def _drop(self, worker: _Worker, *, graceful: bool) -> None:
+        """Take a dead (or Unity-less) worker out of the fleet and hand back its permits."""
+        if worker not in self.workers:
+            return  # another of its episodes reported it first
+        self.workers.remove(worker)
+        self.limiter.release_holder.remote(worker.holder)
         if graceful:
-            self._close([old])
+            self._close([worker.actor])
+        else:
+            self._kill(worker)
+
+    def _kill(self, worker: _Worker) -> None:
+        # Also a worker Ray reports unavailable rather than dead: it must not come back and
+        # run what is queued again elsewhere.
+        with contextlib.suppress(self.ray.exceptions.RayError):
+            self.ray.kill(worker.actor)
+
+    def _check_alive(self, left: int) -> None:
+        """Raise `WorkersLost` when no worker has been alive for `wait_s`."""
+        if self.workers:
+            self.alone_since = None
+            return
+        now = time.monotonic()
+        if self.alone_since is None:
+            self.alone_since = now
+        elif left and now - self.alone_since >= self.wait_s:
+            cause = ("the nodes that ran them are gone" if self.ever_alive
+                     else "none could start")
+            raise WorkersLost(self.wait_s, left, f"{cause}, and the cluster has no room for "
+                                                 f"one ({self.fleet.shape.describe()})")
 
     def stop(self) -> None:
         """Cancel what is in flight; let workers stop their Unity, then end them."""
@@ -203,7 +337,9 @@ class _Run:
         with contextlib.suppress(self.ray.exceptions.RayError):
             for ref in self.in_flight:
                 self.ray.cancel(ref)
-            self._close([slot.actor for slot in self.slots if slot.actor is not None])
+            for worker in self.starting.values():
+                self._kill(worker)
+            self._close([worker.actor for worker in self.workers])
             if self.limiter is not None:
                 self.ray.kill(self.limiter)
 
@@ -216,46 +352,61 @@ class _Run:
     # -- the queue --------------------------------------------------------------------------
 
     def dispatch(self, episodes: list[PlannedEpisode]) -> None:
-        """Keep every worker at its capacity until every episode has a result line."""
+        """Keep the workers busy until every episode has a result line (or the run stops:
+        then raise why, once the episodes in flight are recorded)."""
         queue = deque(episodes)
         while queue or self.in_flight:
-            if self.limit is not None and self.limit.reached():
-                queue.clear()  # left pending: --resume with a higher limit runs them
-            for slot in self.slots:
-                while queue and slot.busy < slot.capacity:
-                    planned = queue.popleft()
-                    call = slot.actor.run.remote(planned, self.episode_timeout_s)
-                    self.in_flight[call] = _InFlight(
-                        planned, slot, slot.generation)
-                    slot.busy += 1
-            ready, _ = self.ray.wait(list(self.in_flight), num_returns=1, timeout=WAIT_S)
+            if self.halt is not None or (self.limit is not None and self.limit.reached()):
+                queue.clear()  # left pending: --resume runs them
+            self._grow(len(queue))
+            self._fill(queue)
+            self._check_alive(len(queue) + len(self.in_flight))
+            waiting = [*self.in_flight, *self.starting]
+            if not waiting:  # no worker, none starting: the cluster has no room yet
+                time.sleep(WAIT_S)
+                continue
+            ready, _ = self.ray.wait(waiting, num_returns=1, timeout=WAIT_S)
             for ref in ready:
-                self._collect(ref, queue)
+                if ref in self.starting:
+                    self._started(ref)
+                else:
+                    self._collect(ref, queue)
+        if self.halt is not None:
+            raise self.halt
+
+    def _fill(self, queue: deque[PlannedEpisode]) -> None:
+        """Send queued episodes to the least busy workers, `jobs` in flight at most."""
+        while queue and len(self.in_flight) < self.jobs:
+            free = [w for w in self.workers if w.busy < self.fleet.per_worker]
+            if not free:
+                return
+            worker = min(free, key=lambda w: w.busy)
+            planned = queue.popleft()
+            self.in_flight[worker.actor.run.remote(planned, self.episode_timeout_s)] = (
+                _InFlight(planned, worker))
+            worker.busy += 1
 
     def _collect(self, ref: Any, queue: deque[PlannedEpisode]) -> None:
         job = self.in_flight.pop(ref)
-        slot = job.slot
-        if slot.generation == job.generation:
-            slot.busy -= 1
+        job.worker.busy -= 1
         try:
             document, record = self.ray.get(ref)
-        except self.ray.exceptions.RayActorError as exc:
-            if slot.generation == job.generation:  # the first of its episodes to report it
-                self._replace(slot, graceful=False)
+        except self.ray.exceptions.RayActorError as exc:  # the worker or its node is lost
+            self._drop(job.worker, graceful=False)
             if not self._requeue(job.planned, queue):
-                self._record(job.planned, None, self._error(job, f"Ray worker died twice "
-                                                                 f"running it: {_gist(exc)}"))
+                self._record(job, None, self._error(job, f"Ray worker died twice running it: "
+                                                         f"{_gist(exc)}"))
             return
         except self.ray.exceptions.RayError as exc:
             document, record = None, self._error(job, _gist(exc))
         if unity_died(record):
-            self._replace(slot, graceful=True)
+            self._drop(job.worker, graceful=True)
             if self._requeue(job.planned, queue):
                 return
-        self._record(job.planned, document, record)
+        self._record(job, document, record)
 
     def _requeue(self, planned: PlannedEpisode, queue: deque[PlannedEpisode]) -> bool:
-        """Queue a lost episode again (next in line), once."""
+        """Queue a lost episode again (next in line, for any worker), once."""
         self.requeued[planned.key] += 1
         if self.requeued[planned.key] > 1:
             return False
@@ -266,17 +417,27 @@ class _Run:
         return infra_error_record(job.planned, redact(error, self.settings.secrets()),
                                   time.perf_counter() - job.started)
 
+    def _stop_with(self, error: Exception | None) -> None:
+        if self.halt is None and error is not None:
+            self.halt = error
+
     # -- the single writer ------------------------------------------------------------------
 
-    def _record(self, planned: PlannedEpisode, document: dict[str, Any] | None,
+    def _record(self, job: _InFlight, document: dict[str, Any] | None,
                 record: dict[str, Any]) -> None:
         """As a local run records an episode: the trajectory, then its result line (a folder
-        that cannot be written stops the run, as in `run_one`)."""
+        that cannot be written stops the run, as in `run_one`), with where it ran; a fatal
+        model error in it stops the dispatch."""
+        assert job.worker.info is not None  # only started workers are sent episodes
+        record["node"] = job.worker.info.node
+        if self.requeued[job.planned.key]:
+            record["requeued"] = self.requeued[job.planned.key]
         if document is not None:
-            record["trajectory"] = self.folder.write_trajectory(planned.key, document)
+            record["trajectory"] = self.folder.write_trajectory(job.planned.key, document)
         self.folder.append_result(record)
         if self.on_result is not None:
             self.on_result(record)
+        self._stop_with(fatal_model_error(record, document))
 
 
 def _gist(exc: BaseException, *, last: bool = False) -> str:

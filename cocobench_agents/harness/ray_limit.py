@@ -75,11 +75,16 @@ class ConcurrencyLimiter:
 
 
 def limiter_actor(limit: int, name: str) -> Any:
-    """Start the run's `ConcurrencyLimiter` actor (it takes no CPU and dies with the driver)."""
+    """Start the run's `ConcurrencyLimiter` actor on the driver's node (it takes no CPU and
+    dies with the driver)."""
     import ray
+    from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
+    # Needing no CPU, it could be placed on any node, and die with a worker node that the
+    # run outlives; on the driver's node it lasts as long as the run.
+    here = NodeAffinitySchedulingStrategy(ray.get_runtime_context().get_node_id(), soft=False)
     actor_class = ray.remote(ConcurrencyLimiter)
-    return actor_class.options(name=name, num_cpus=0,
+    return actor_class.options(name=name, num_cpus=0, scheduling_strategy=here,
                                max_concurrency=LIMITER_CALLS_IN_FLIGHT).remote(limit)
 
 

@@ -3,7 +3,8 @@ trajectory and result line to the driver, which alone writes the run folder.
 
 An embedded-simulator worker runs several episodes at once on its event loop (as a local
 run does); an AI2-THOR worker runs one at a time in the Unity it keeps in its process's
-controller pool between episodes.
+controller pool between episodes. A worker tells the driver which node it is on, and which
+of the run's key variables that node lacks, before it is sent any episode.
 """
 
 from __future__ import annotations
@@ -11,6 +12,8 @@ from __future__ import annotations
 import os
 import socket
 import sys
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from benchmark_adapter.sim.backends import check_backend
@@ -18,28 +21,41 @@ from cocobench_agents.harness.batch import run_one
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
 from cocobench_agents.harness.store import EpisodeKey
-from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.models import ModelPool, ModelSettings, is_builtin, is_local_url
+from cocobench_agents.models.openai_http import OPENAI_KEY_ENV
+from cocobench_agents.models.providers import key_variables
 
 THOR_GPU_VARIABLE = "COCOBENCH_THOR_GPU_DEVICE"
 UNITY_DIED = "ThorCrashed("  # how an infrastructure error from a dead Unity starts
 
+KeyVariables = tuple[tuple[str, ...], ...]  # per model: the variables any one of which will do
 
-class CapturedTrajectory:
-    """Stands in for the run folder in a worker: keeps the trajectory for the driver."""
 
-    def __init__(self) -> None:
-        self.document: dict[str, Any] | None = None
+@dataclass(frozen=True)
+class WorkerInfo:
+    """A started worker: its Ray node, its host and process, and the run's key variables
+    that are not set there ("A or B" when either would do)."""
+
+    node: str
+    host: str
+    pid: int
+    missing: tuple[str, ...] = ()
+
+
+class TrajectoryPath:
+    """Stands in for the run folder in a worker: the driver writes the trajectory it is sent
+    back; this only says where."""
 
     def write_trajectory(self, key: EpisodeKey, document: dict[str, Any]) -> str:
-        self.document = document
-        return f"{key.folder()}/trajectory.json"  # the driver records where it wrote it
+        return f"{key.folder()}/trajectory.json"
 
 
 class EpisodeWorker:
     """Runs episodes for the driver (an async Ray actor's body)."""
 
     def __init__(self, settings: ModelSettings, limiter: Any, holder: str,
-                 backend: str) -> None:
+                 backend: str, keys: KeyVariables = ()) -> None:
+        self.missing = missing_variables(keys)
         self.pool = LimitedPool(ModelPool(settings), limiter, holder)
         if backend != "embedded":
             _use_assigned_gpu()
@@ -49,18 +65,20 @@ class EpisodeWorker:
                 detail = " ".join(str(exc).split())  # one line: the driver shows the last
                 raise RuntimeError(f"{type(exc).__name__}: {detail}") from None
 
-    def ready(self) -> str:
-        """Where this worker runs (answered once it has started)."""
-        return f"{socket.gethostname()} pid {os.getpid()}"
+    def ready(self) -> WorkerInfo:
+        """Where this worker runs and what its node lacks (answered once it has started)."""
+        import ray
+
+        return WorkerInfo(ray.get_runtime_context().get_node_id(), socket.gethostname(),
+                          os.getpid(), self.missing)
 
     async def run(self, planned: PlannedEpisode, timeout_s: float | None = None
                   ) -> tuple[dict[str, Any] | None, dict[str, Any]]:
         """One episode (ended as an infrastructure error after `timeout_s`) → (its trajectory
         document, or None if it failed to run; its result line)."""
-        captured = CapturedTrajectory()
-        record = await run_one(planned, captured, self.pool,  # type: ignore[arg-type]
-                               timeout_s=timeout_s)
-        return (None if record.get("infra_error") else captured.document), record
+        record, document = await run_one(planned, TrajectoryPath(),  # type: ignore[arg-type]
+                                         self.pool, timeout_s=timeout_s)
+        return document, record
 
     async def close(self) -> None:
         """Close model connections and stop this process's AI2-THOR, if it started one."""
@@ -68,6 +86,33 @@ class EpisodeWorker:
         thor = sys.modules.get("benchmark_adapter.sim.thor.pool")  # loaded if it was used
         if thor is not None:
             thor.POOL.close()
+
+
+def run_key_variables(settings: ModelSettings, models: Iterable[str]) -> KeyVariables:
+    """The variables the run's `models` read their keys from, told as `ModelPool.validate`
+    tells them on the driver (names only): none for built-ins, or for a local `api_base`
+    without `api_key_env`, nor for a provider only LiteLLM knows the variable of (its calls
+    then fail on the node, and stop the run as an authentication error)."""
+    needed: dict[tuple[str, ...], None] = {}
+    for model in dict.fromkeys(models):
+        if is_builtin(model) or (is_local_url(settings.api_base) and not settings.api_key_env):
+            continue
+        if settings.api_key_env:
+            names: tuple[str, ...] | None = (settings.api_key_env,)
+        elif settings.transport == "http":
+            names = (OPENAI_KEY_ENV,)
+        else:
+            names = key_variables(model)
+        if names is not None:
+            needed[names] = None
+    return tuple(needed)
+
+
+def missing_variables(keys: Sequence[Sequence[str]]) -> tuple[str, ...]:
+    """Of `keys` (per model, the variables any one of which will do), those this process's
+    environment has none of."""
+    return tuple(" or ".join(names) for names in keys
+                 if not any(os.environ.get(name) for name in names))
 
 
 def unity_died(record: dict[str, Any]) -> bool:

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from benchmark_adapter.trajectory import write_json_atomic
+from benchmark_adapter.trajectory import PROMPTS_FIELD, write_json_atomic
 from cocobench_agents.harness.result_rows import row_error, row_identity
 from cocobench_agents.harness.run_lock import RunLock
 
@@ -62,9 +62,6 @@ class EpisodeKey:
 RESULTS = "results.jsonl"
 RUN_FILE = "run.json"
 PROMPTS_FILE = "prompts.json.gz"
-#: The trajectory field carrying the prompts its decisions name by `prompt_hash`; the run
-#: folder keeps them in the episode's `PROMPTS_FILE` instead of the trajectory.
-PROMPTS_FIELD = "prompts"
 SHOWN_PROBLEMS = 10  # problems of a results file named one by one; the rest are counted
 
 

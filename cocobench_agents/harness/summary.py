@@ -3,6 +3,7 @@ prompt-suite arm, in a run that compares several)."""
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
@@ -37,6 +38,24 @@ def summary_table(records: Iterable[dict[str, Any]]) -> tuple[tuple[str, ...], l
 def summary_rows(records: Iterable[dict[str, Any]]) -> list[list[Any]]:
     """The rows of `summary_table`."""
     return summary_table(records)[1]
+
+
+def node_lines(records: Iterable[dict[str, Any]]) -> list[str]:
+    """Where a Ray run's episodes ran: a line per Ray node (the ``node`` of result lines),
+    busiest first, with the episodes it ran and how many of those it ran after another
+    worker had lost them (``requeued``); none when no line names a node (a local run)."""
+    ran: Counter[str] = Counter()
+    requeued: Counter[str] = Counter()
+    for record in latest(records):
+        node = record.get("node")
+        if isinstance(node, str) and node:
+            ran[node] += 1
+            requeued[node] += bool(record.get("requeued"))
+    lines = []
+    for node, count in sorted(ran.items(), key=lambda item: (-item[1], item[0])):
+        again = f", {requeued[node]} of them re-queued from a lost worker" if requeued[node] else ""
+        lines.append(f"node {node}: {count} episode{'s' if count != 1 else ''}{again}")
+    return lines
 
 
 def latest(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:

@@ -6,13 +6,14 @@ the simulator and the client cost milliseconds per call): ``--workers`` spreads 
 over cores. Workers write trajectories; only the parent appends to ``results.jsonl`` (one
 writer keeps every line whole), as each worker sends a result back. A worker that dies loses
 only the episodes it had in flight: ``--resume`` runs them again. A worker that cannot write
-the run folder sends the error instead, and the parent stops the run with it.
+the run folder sends the error instead, and the parent stops the run with it. A worker that
+meets a fatal model error stops every worker from starting episodes (a shared flag) and
+sends the error; the parent raises it once the episodes in flight are recorded.
 """
 
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import multiprocessing
 import os
 import signal
@@ -21,14 +22,16 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.harness.batch import ResultCallback, execute_and_close, longest_first
+from cocobench_agents.harness.batch import (
+    Halt,
+    ResultCallback,
+    execute_and_close,
+    longest_first,
+)
+from cocobench_agents.harness.errors import FatalModelError, WorkerError
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.store import RunFolder, RunFolderError, RunFolderWriteError
 from cocobench_agents.models import ModelPool, ModelSettings
-
-
-class WorkerError(RuntimeError):
-    """A worker process died before finishing its episodes."""
 
 
 def available_cores() -> int:
@@ -45,10 +48,12 @@ def execute_in_workers(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                        **run_options: Any) -> None:
     """Run every episode in `workers` processes sharing `jobs` (and each model's
     `max_concurrency`) between them; append each result as it arrives, then `on_result`.
-    `run_options` (a spend limit, the episode timeout) go to `execute` in every worker."""
+    `run_options` (a spend limit, the episode timeout) go to `execute` in every worker.
+    Raises the first `FatalModelError` a worker met, once every worker has ended."""
     workers = max(1, min(workers, jobs, len(episodes)))
     episodes = longest_first(episodes)  # dealt in turn: each worker gets long and short ones
     context = _context()
+    halt = context.Event()
     running: dict[Connection, multiprocessing.process.BaseProcess] = {}
     try:
         for index in range(workers):
@@ -56,7 +61,7 @@ def execute_in_workers(episodes: Sequence[PlannedEpisode], folder: RunFolder,
             process = context.Process(
                 target=_work, name=f"cocobench-worker-{index}", daemon=True,
                 args=(episodes[index::workers], folder.path, _share_settings(settings, index,
-                      workers), share(jobs, index, workers), send, run_options))
+                      workers), share(jobs, index, workers), send, halt, run_options))
             process.start()
             send.close()  # the worker holds the only sending end: EOF means it has ended
             running[receive] = process
@@ -71,6 +76,7 @@ def execute_in_workers(episodes: Sequence[PlannedEpisode], folder: RunFolder,
 def _collect(running: dict[Connection, Any], folder: RunFolder,
              on_result: ResultCallback | None) -> None:
     died = []
+    fatal: list[FatalModelError] = []
     open_ends = dict(running)
     while open_ends:
         for end in wait(list(open_ends)):
@@ -84,23 +90,29 @@ def _collect(running: dict[Connection, Any], folder: RunFolder,
                 continue
             if isinstance(record, (RunFolderError, RunFolderWriteError)):
                 raise record  # a worker could not write the run folder: the run stops
+            if isinstance(record, FatalModelError):
+                fatal.append(record)  # its worker has set `halt`: the others start no more
+                continue
             folder.append_result(record)
             if on_result is not None:
                 on_result(record)
+    if fatal:
+        raise fatal[0]  # it says what to fix; --resume --retry-errors runs the rest
     if died:
         raise WorkerError(f"{', '.join(died)} stopped early: the episodes it had not finished "
                           "are missing; run again with --resume to complete them")
 
 
 def _work(episodes: list[PlannedEpisode], folder_path: Path, settings: ModelSettings,
-          jobs: int, send: Connection, run_options: dict[str, Any]) -> None:
+          jobs: int, send: Connection, halt: Halt, run_options: dict[str, Any]) -> None:
     # The parent owns Ctrl-C (it stops the workers); a worker must not outlive it either.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent()
     try:
         asyncio.run(execute_and_close(episodes, RunFolder(folder_path), ModelPool(settings),
-                                      jobs=jobs, store_result=send.send, **run_options))
-    except (RunFolderError, RunFolderWriteError) as exc:
+                                      jobs=jobs, store_result=send.send, halt=halt,
+                                      **run_options))
+    except (RunFolderError, RunFolderWriteError, FatalModelError) as exc:
         send.send(exc)  # the parent stops the run with it (no traceback from here)
     send.close()
 
@@ -111,8 +123,8 @@ def share(total: int, index: int, parts: int) -> int:
 
 
 def _share_settings(settings: ModelSettings, index: int, parts: int) -> ModelSettings:
-    return dataclasses.replace(
-        settings, max_concurrency=share(settings.max_concurrency, index, parts))
+    return settings.model_copy(
+        update={"max_concurrency": share(settings.max_concurrency, index, parts)})
 
 
 def _context() -> multiprocessing.context.BaseContext:

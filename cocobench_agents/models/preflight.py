@@ -10,7 +10,6 @@ cached answer proves nothing about the endpoint).
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import functools
 import io
 from collections.abc import Iterable
@@ -46,7 +45,7 @@ def preflight(pool: ModelPool, models: Iterable[str], obs_modes: Iterable[str]) 
 
 
 async def _probe_all(pool: ModelPool, checks: list[tuple[str, bool]]) -> list[str | None]:
-    probes = ModelPool(dataclasses.replace(pool.settings, cache_dir=None))
+    probes = ModelPool(pool.settings.model_copy(update={"cache_dir": None}))
     try:
         return await asyncio.gather(*(_probe(probes, model, images) for model, images in checks))
     finally:

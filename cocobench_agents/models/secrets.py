@@ -80,8 +80,9 @@ def named_secrets(obj: object) -> list[str]:
 
 
 def url_credentials(url: str | None) -> list[str]:
-    """The ``user:password`` of a URL (both parts), if it has any."""
-    if not url or "@" not in url:
+    """The ``user:password`` of a URL (both parts), if it has any (none in a URL whose
+    credentials are already redacted)."""
+    if not url or "@" not in url or REDACTED in url:
         return []
     parts = urlsplit(url)
     return [v for v in (parts.username, parts.password) if v]

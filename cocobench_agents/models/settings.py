@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import base64
 import ipaddress
+import json
 import os
-from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 from urllib.parse import unquote, urlsplit, urlunsplit
+
+from pydantic import BaseModel, ConfigDict, field_validator
+
+from cocobench_agents.setting_kinds import run_setting, shaping
 
 from .secrets import named_secrets, redact_named, redact_obj, redact_url, url_credentials
 
@@ -38,78 +42,105 @@ def is_local_url(url: str | None) -> bool:
     return address.is_loopback or address.is_unspecified
 
 
-@dataclass(frozen=True)
-class ModelSettings:
-    """Settings shared by every remote model of a run.
+class ModelSettings(BaseModel):
+    """How the remote models of a run are called (shared by every model of the run).
 
-    * `api_base`: endpoint URL (e.g. ``http://127.0.0.1:8080/v1`` for a local llama.cpp or
-      vLLM server); None = the provider's default.
-    * `api_key_env`: the NAME of the environment variable holding the key (the key itself is
-      never stored here, nor in records or files); None = LiteLLM's provider default
-      (``OPENAI_API_KEY``, ``ANTHROPIC_API_KEY``, ...).
-    * `timeout_s`: HTTP timeout of the first attempt; attempt n gets ``timeout_s × n`` (as the
-      reference).
-    * `max_retries`: retries after the first attempt on transient errors, so
-      ``max_retries + 1`` attempts in all. The default 2 gives the reference's 3 attempts.
-    * `max_concurrency`: requests in flight per model (further requests queue).
-    * `temperature`: a float is always sent; None is never sent; ``"auto"`` follows the
-      reference (0 for model names starting gpt/o1/o3/o4, nothing otherwise).
-    * `max_tokens`: completion limit; None = not sent.
-    * `extra_params`: merged into every call (e.g. ``{"extra_body": {...}, "top_p": 0.9}``).
-    * `grammar`: constrained decoding: send a GBNF grammar built from the menu
-      (``extra_body.grammar``, understood by llama.cpp's server).
-    * `cache_dir`: on-disk response cache folder; None = no cache.
-    * `seed`: sent as ``seed + sample_index`` when set; also seeds the ``random`` built-in.
-    * `backoff_s` / `backoff_max_s`: exponential backoff with full jitter between retries
-      (``random(0, min(backoff_max_s, backoff_s × 2^n))``).
-    * `max_reply_chars`: longer replies are cut to this length; the number of characters
-      dropped is `ModelReply.truncated_chars`, never a note in the text.
-    * `transport`: ``"litellm"`` (default) or ``"http"``: ``openai/NAME`` models posted straight
-      to ``{api_base}/chat/completions``, for runs the LiteLLM client's CPU cost would bound.
+    Built-in models ignore these. Each field says whether it shapes what is sent (a resumed
+    run keeps it) or only how the calls go (`setting_kinds`).
     """
 
-    api_base: str | None = None
-    api_key_env: str | None = None
-    timeout_s: float = 180.0
-    max_retries: int = 2
-    max_concurrency: int = 16
-    temperature: float | str | None = TEMPERATURE_AUTO
-    max_tokens: int | None = None
-    extra_params: dict[str, Any] = field(default_factory=dict)
-    grammar: bool = False
-    cache_dir: str | Path | None = None
-    seed: int | None = None
-    backoff_s: float = 1.0
-    backoff_max_s: float = 30.0
-    max_reply_chars: int = 16_384
-    transport: str = "litellm"
+    model_config = ConfigDict(frozen=True, extra="forbid")
 
-    def __post_init__(self) -> None:
-        # A private copy, so later changes to the caller's dict cannot leak into a run.
-        object.__setattr__(self, "extra_params", dict(self.extra_params or {}))
-        if self.cache_dir is not None:
-            object.__setattr__(self, "cache_dir", Path(self.cache_dir))
-        if self.timeout_s <= 0:
-            raise ValueError(f"timeout_s must be > 0, got {self.timeout_s}")
-        if self.max_retries < 0:
-            raise ValueError(f"max_retries must be >= 0, got {self.max_retries}")
-        if self.max_concurrency < 1:
-            raise ValueError(f"max_concurrency must be >= 1, got {self.max_concurrency}")
-        if self.backoff_s < 0 or self.backoff_max_s < 0:
-            raise ValueError("backoff_s and backoff_max_s must be >= 0")
-        if self.max_reply_chars < 1:
-            raise ValueError(f"max_reply_chars must be >= 1, got {self.max_reply_chars}")
-        if self.transport not in TRANSPORTS:
-            raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, "
-                             f"got {self.transport!r}")
-        if isinstance(self.temperature, str) and self.temperature != TEMPERATURE_AUTO:
-            raise ValueError(
-                f"temperature must be a number, None or {TEMPERATURE_AUTO!r}, "
-                f"got {self.temperature!r}"
-            )
-        if self.api_key_env is not None and not self.api_key_env.isidentifier():
-            # Catches the easy mistake of passing the key itself instead of the variable name.
-            raise ValueError("api_key_env must be the NAME of an environment variable")
+    api_base: str | None = shaping(
+        None, flag="--api-base",
+        description="Endpoint URL (e.g. http://127.0.0.1:8080/v1 for a local llama.cpp or "
+                    "vLLM server); None: the provider's default. user:password@ in it is sent "
+                    "as HTTP Basic authorization and never stored.")
+    api_key_env: str | None = run_setting(
+        None, flag="--api-key-env",
+        description="The NAME of the environment variable holding the API key (never the "
+                    "key itself); None: LiteLLM's provider default (OPENAI_API_KEY, ...).")
+    timeout_s: float = run_setting(
+        180.0, flag="--timeout", gt=0,
+        description="HTTP timeout of a call's first attempt in seconds; attempt n gets "
+                    "timeout_s × n (as the reference).")
+    max_retries: int = run_setting(
+        2, flag="--max-retries", ge=0,
+        description="Retries after the first attempt on transient errors (2: the "
+                    "reference's 3 attempts).")
+    max_concurrency: int = run_setting(
+        16, flag="--max-concurrency", ge=1,
+        description="Model calls in flight per model (further calls queue).")
+    temperature: float | Literal["auto"] | None = shaping(
+        TEMPERATURE_AUTO, flag="--temperature",
+        description="A number is always sent; null never; 'auto' follows the reference (0 "
+                    "for model names starting gpt/o1/o3/o4, nothing otherwise).")
+    max_tokens: int | None = shaping(
+        None, flag="--max-tokens", ge=1,
+        description="Completion token limit per call; None: not sent.")
+    extra_params: dict[str, Any] = shaping(
+        default_factory=dict, flag="--extra",
+        description="Merged into every call, e.g. {\"top_p\": 0.9} (a JSON object; secrets "
+                    "under names like api_key are never stored).")
+    grammar: bool = shaping(
+        False, flag="--grammar",
+        description="Constrain replies to the menu ids with a GBNF grammar "
+                    "(extra_body.grammar, understood by llama.cpp's server).")
+    cache_dir: Path | None = run_setting(
+        None, flag="--cache", description="On-disk response cache folder; None: no cache.")
+    seed: int | None = shaping(
+        None, flag="--seed",
+        description="Sent as seed + sample index when set; also seeds the random built-in.")
+    backoff_s: float = run_setting(
+        1.0, ge=0, description="Exponential backoff with full jitter between retries: "
+                               "random(0, min(backoff_max_s, backoff_s × 2^n)).")
+    backoff_max_s: float = run_setting(30.0, ge=0, description="The backoff's ceiling.")
+    max_reply_chars: int = shaping(
+        16_384, ge=1, description="Longer replies are cut to this length (the characters "
+                                  "dropped are counted, never noted in the text).")
+    transport: Literal["litellm", "http"] = shaping(
+        "litellm", flag="--transport",
+        description="How remote models are called: LiteLLM (any provider), or http, a lean "
+                    "OpenAI-compatible client for openai/NAME models (for high --jobs "
+                    "against a local server; see docs/models.md).")
+
+    @field_validator("extra_params", mode="before")
+    @classmethod
+    def _json_object(cls, value: Any) -> Any:
+        """``--extra`` and environment variables give the object as JSON text."""
+        if isinstance(value, str):
+            try:
+                value = json.loads(value) if value.strip() else {}
+            except json.JSONDecodeError as exc:
+                raise ValueError(f"not JSON: {exc}") from None
+        if not isinstance(value, dict):
+            raise ValueError("must be a JSON object")
+        return value
+
+    @field_validator("temperature", mode="before")
+    @classmethod
+    def _temperature(cls, value: Any) -> Any:
+        """A number, ``auto`` or ``none`` (``--temperature none`` sends none; ``null`` in a
+        config file), one message for anything else."""
+        if not isinstance(value, str):
+            return value
+        if value.lower() in ("none", "null"):
+            return None
+        if value == TEMPERATURE_AUTO:
+            return value
+        try:
+            return float(value)
+        except ValueError:
+            raise ValueError(f"expected a number, {TEMPERATURE_AUTO!r} or none, "
+                             f"got {value!r}") from None
+
+    @field_validator("api_key_env")
+    @classmethod
+    def _variable_name(cls, value: str | None) -> str | None:
+        # Catches the easy mistake of passing the key itself instead of the variable name.
+        if value is not None and not value.isidentifier():
+            raise ValueError("must be the NAME of an environment variable")
+        return value
 
     @property
     def max_attempts(self) -> int:
@@ -156,12 +187,11 @@ class ModelSettings:
 
     def to_record(self) -> dict[str, Any]:
         """A JSON-safe description for run metadata: no key, only the variable's name."""
-        record = {f.name: getattr(self, f.name) for f in fields(self)}
+        record = self.model_dump(mode="json", exclude={"extra_params"})
         # extra_params may carry headers or tokens a user put there by hand; the endpoint,
         # user:password@.
         record["extra_params"] = redact_named(_json_safe(self.extra_params))
         record["api_base"] = redact_url(self.api_base)
-        record["cache_dir"] = None if self.cache_dir is None else str(self.cache_dir)
         return redact_obj(record, self.secrets())  # type: ignore[return-value]
 
 

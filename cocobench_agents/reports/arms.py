@@ -22,17 +22,26 @@ MODEL_SETTINGS = ("api_base", "transport", "temperature", "max_tokens", "grammar
 _BUILTINS = ("greedy", "random", "scripted", "replay", "oracle")
 
 
+def recorded_settings(record: Mapping[str, Any]) -> tuple[Mapping[str, Any],
+                                                         Mapping[str, Any]]:
+    """A `run.json`'s run options (backend, step budget, …) and model settings: both in its
+    ``request`` (the one-request layout, `record_version` 2), or apart (earlier runs)."""
+    if record.get("record_version") == 2:
+        request = _mapping(record.get("request"))
+        return request, _mapping(request.get("model_settings"))
+    return _mapping(record.get("options")), _mapping(record.get("model_settings"))
+
+
 def row_settings(record: Mapping[str, Any], model: str, arm: str = "") -> dict[str, Any]:
     """What a run's `run.json` says shapes the episodes of `model` (in the run's
     prompt-suite `arm`, if it has arms; missing: None)."""
-    options = _mapping(record.get("options"))
+    options, model_settings = recorded_settings(record)
     settings = {name: options.get(name) for name in RUN_OPTIONS}
     suite = _suite(record, arm)
     settings["prompt_suite"] = suite.get("spec")
     if suite.get("content_hash"):  # older runs did not record it
         settings["prompt_suite content"] = suite["content_hash"]
     if model.partition(":")[0] not in _BUILTINS:
-        model_settings = _mapping(record.get("model_settings"))
         settings.update({name: model_settings.get(name) for name in MODEL_SETTINGS})
     return settings
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from cocobench_agents.harness.infra import is_infra_failure
 from cocobench_agents.harness.store import RESULTS, RUN_FILE, RunFolder, RunFolderError
-from cocobench_agents.reports.arms import arm_label, difference, row_settings
+from cocobench_agents.reports.arms import arm_label, difference, recorded_settings, row_settings
 
 DIMENSIONS = ("D1", "D2", "D3", "D4")
 OBS_ORDER = ("image", "blind")
@@ -106,7 +106,8 @@ class RunInfo:
         if not (tasks and models and conds):
             return None
         arms = max(1, len(self.arms))
-        return len(tasks) * len(models) * len(conds) * arms * int(plan.get("epochs") or 1)
+        epochs = plan.get("epochs") or recorded_settings(self.record)[0].get("epochs") or 1
+        return len(tasks) * len(models) * len(conds) * arms * int(epochs)
 
 
 @dataclass

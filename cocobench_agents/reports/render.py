@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from cocobench_agents.reports.arms import recorded_settings
 from cocobench_agents.reports.load import ReportData, RunInfo
 from cocobench_agents.reports.stats import NA, Bootstrap, Estimate
 from cocobench_agents.reports.table import KINDS, Column, Table
@@ -174,8 +175,8 @@ def index_markdown(data: ReportData, tables: Sequence[Table], plots: Sequence[Pl
     lines += ["", "## Versions", ""]
     packages = sorted({k for r in data.runs for k in (r.record.get("versions") or {})})
     lines += _md_table(["Run", "prompt suite", "backend", *packages], [
-        [r.name, _prompt_suite(r.record), str((r.record.get("options") or {})
-                                                .get("backend") or ""),
+        [r.name, _prompt_suite(r.record),
+         str(recorded_settings(r.record)[0].get("backend") or ""),
          *(str((r.record.get("versions") or {}).get(k, "")) for k in packages)]
         for r in data.runs])
     return "\n".join(lines) + "\n"

@@ -17,8 +17,7 @@ from benchmark_adapter.menu import MenuEntry, menu_lines
 from benchmark_adapter.metrics import EpisodeResult, score_trajectory
 from benchmark_adapter.sim.embedded.render import merge_agent_frames
 from benchmark_adapter.skills import SkillResult
-from benchmark_adapter.trajectory import write_json_atomic
-from cocobench_agents.harness.store import PROMPTS_FIELD
+from benchmark_adapter.trajectory import PROMPTS_FIELD, write_json_atomic
 from cocobench_agents.models.protocol import MenuOption
 from cocobench_agents.prompts import (
     PromptInputs,

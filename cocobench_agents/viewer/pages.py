@@ -95,7 +95,7 @@ class Pages:
             "episode.html", page, episode=episode, run=run, traj=traj, config=config,
             agents=agents, timeline=timeline,
             gantt=gantt([str(a.get("id")) for a in agents], timeline.steps, timeline.categories),
-            signal=construct_signal(traj, timeline.steps, timeline.categories),
+            signal=construct_signal(traj, timeline.steps),
             goal=_goal(traj), compare_href=compare_path(episode.key.task_id),
             board=bool(timeline.messages) or split_condition(episode.key.condition)[0] == "D1",
             **_outcome(episode.record, traj))

@@ -1,8 +1,8 @@
 """The coordination views: a per-agent Gantt of steps coloured by the benchmark's step
 classification, and the construct's own signal over time.
 
-The signal reruns the benchmark's construct formula (`metrics.constructs`) on every prefix
-of the episode, without the evidence gate, so each event (a precedence violation, a
+The signal is the benchmark's construct formula run on every prefix of the episode, without
+the evidence gate (`metrics.construct_evidence`), so each event (a precedence violation, a
 collision, an overflow, a starved wait) is dated at the step where the formula first counts
 it. Nothing here scores: the numbers are the formula's own evidence.
 """
@@ -13,8 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from benchmark_adapter.metrics import constructs
-from benchmark_adapter.metrics.errors import TrajectoryError
+from benchmark_adapter.metrics import ConstructEvidence, TrajectoryError, construct_evidence
 from benchmark_adapter.metrics.general import per_agent_actions
 from benchmark_adapter.metrics.steps import STEP_CATEGORIES, Step
 
@@ -97,9 +96,8 @@ def gantt(agents: Sequence[str], steps: Sequence[Step], categories: Sequence[str
     return Gantt(rows, slots, by_round, cells)
 
 
-def construct_signal(traj: Mapping[str, Any], steps: Sequence[Step],
-                     categories: Sequence[str]) -> Signal:
-    """The signal of the episode's own coordination dimension."""
+def construct_signal(traj: Mapping[str, Any], steps: Sequence[Step]) -> Signal:
+    """The signal of the episode's own coordination dimension (`steps`: its landed steps)."""
     config = traj.get("task_config") or {}
     dim = str(config.get("coordination_dim") or "")
     signal = Signal(dim, TITLES.get(dim, f"{dim}: no signal view"), len(steps))
@@ -107,29 +105,17 @@ def construct_signal(traj: Mapping[str, Any], steps: Sequence[Step],
         signal.unavailable = f"no signal view for dimension {dim or '(none)'}"
         return signal
     try:
-        history = _evidence_history(dim, config, steps, categories)
-        signal.evidence = history[-1] if history else {}
-        _events(signal, dim, history)
-        _DRAW[dim](signal, config, traj.get("trajectory") or [], steps)
+        evidence = construct_evidence(traj)
     except TrajectoryError as exc:
         signal.unavailable = f"the trajectory lacks what the signal needs: {exc}"
+        return signal
+    signal.evidence = evidence.history[-1] if evidence.history else {}
+    _events(signal, dim, evidence.history)
+    _DRAW[dim](signal, config, evidence, traj.get("trajectory") or [], steps)
     return signal
 
 
-def _evidence_history(dim: str, config: Mapping[str, Any], steps: Sequence[Step],
-                      categories: Sequence[str]) -> list[dict[str, Any]]:
-    """The formula's evidence after each landed step (empty while the mechanism has not
-    been exercised at all, where the formula is undefined)."""
-    sample, formula = constructs._DIMS[dim]  # the benchmark's own formula, ungated
-    constraints = config.get("task_constraints") or {}
-    history = []
-    for k in range(1, len(steps) + 1):
-        episode = constructs._Episode(config, constraints, list(steps[:k]), list(categories[:k]))
-        history.append(formula(episode)[1] if sample(episode) > 0 else {})
-    return history
-
-
-def _events(signal: Signal, dim: str, history: list[dict[str, Any]]) -> None:
+def _events(signal: Signal, dim: str, history: Sequence[dict[str, Any]]) -> None:
     previous: dict[str, Any] = {}
     for ordinal, evidence in enumerate(history, start=1):
         for counter, kind in EVENT_COUNTERS.get(dim, ()):
@@ -140,8 +126,8 @@ def _events(signal: Signal, dim: str, history: list[dict[str, Any]]) -> None:
             previous = evidence
 
 
-def _draw_d1(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
-             steps: Sequence[Step]) -> None:
+def _draw_d1(signal: Signal, config: Mapping[str, Any], evidence: ConstructEvidence,
+             items: Sequence[Any], steps: Sequence[Step]) -> None:
     agents = [str(a.get("id")) for a in config.get("agents") or [] if isinstance(a, Mapping)]
     loads = [per_agent_actions(list(steps[:k])) for k in range(1, len(steps) + 1)]
     for agent in dict.fromkeys([*agents, *(s.agent for s in steps)]):
@@ -151,15 +137,15 @@ def _draw_d1(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
         signal.reference = (float(reference), f"M* = {reference:g}")
 
 
-def _draw_d2(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
-             steps: Sequence[Step]) -> None:
-    for container in constructs._container_ids(config):
+def _draw_d2(signal: Signal, config: Mapping[str, Any], evidence: ConstructEvidence,
+             items: Sequence[Any], steps: Sequence[Step]) -> None:
+    for container in evidence.containers:
         signal.tracks.append((_short(container), [_open_state(s, container) for s in steps]))
 
 
-def _draw_d3(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
-             steps: Sequence[Step]) -> None:
-    mode, keys = constructs._d3_mode(config.get("task_constraints") or {})
+def _draw_d3(signal: Signal, config: Mapping[str, Any], evidence: ConstructEvidence,
+             items: Sequence[Any], steps: Sequence[Step]) -> None:
+    mode, keys = evidence.exclusion_mode, evidence.exclusion_keys
     if mode == "shared_tool":
         for resource in sorted(keys):
             signal.tracks.append((f"holder of {_short(resource)}",
@@ -169,15 +155,12 @@ def _draw_d3(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
                               [s.agent if s.skill in keys else "" for s in steps]))
 
 
-def _draw_d4(signal: Signal, config: Mapping[str, Any], items: Sequence[Any],
-             steps: Sequence[Step]) -> None:
-    buffers = constructs._buffers(config.get("task_constraints") or {})
-    if not buffers:
+def _draw_d4(signal: Signal, config: Mapping[str, Any], evidence: ConstructEvidence,
+             items: Sequence[Any], steps: Sequence[Step]) -> None:
+    capacity = evidence.buffer_capacity
+    if capacity is None:
         return  # no declared buffer: the events (misplacements, waits) are the signal
-    ids = {str(b["objectId"]) for b in buffers}
-    signal.series.append(("buffer occupancy",
-                          [float(constructs._occupancy(s, ids)) for s in steps]))
-    capacity = max(constructs._capacity(b) for b in buffers)
+    signal.series.append(("buffer occupancy", [float(n) for n in evidence.buffer_occupancy]))
     signal.reference = (float(capacity), f"capacity {capacity:g}")
 
 

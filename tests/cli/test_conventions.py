@@ -50,7 +50,7 @@ def test_help_imports_no_model_stack(argv):
     (["run", "--model", "gpt4o-typo", "--out", "{out}"], "unknown model"),
     (["run", "--model", "greedy", "--out", "{out}", "--jobs", "zero"], "--jobs"),
     (["run", "--model", "greedy", "--out", "{out}", "--api-key-env", "sk-123"],
-     "--api-key-env must be the NAME"),
+     "--api-key-env (model_settings.api_key_env): must be the NAME"),
 ])
 def test_user_mistakes_answer_without_the_model_stack(tmp_path, argv, message):
     out = tmp_path / "run"

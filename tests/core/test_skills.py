@@ -7,6 +7,9 @@ import math
 
 import pytest
 
+from benchmark_adapter.skills import SKILLS
+from benchmark_adapter.vocabulary import SKILL_NAMES
+
 from .worlds import (
     COUNTER,
     DRAWER_A,
@@ -252,6 +255,10 @@ def test_slice_without_a_knife(kitchen: Sim) -> None:
 def test_slice_holding_something_else(kitchen: Sim, held: str, message: str) -> None:
     ok(kitchen, f"PickUp(agent_1, {held})")
     refused(kitchen, f"Slice(agent_1, {TOMATO})", message)
+
+
+def test_the_executor_implements_exactly_the_skills_task_checks_accept() -> None:
+    assert tuple(SKILLS) == SKILL_NAMES
 
 
 def test_unsupported_skill(kitchen: Sim) -> None:

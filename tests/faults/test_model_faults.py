@@ -273,7 +273,7 @@ def test_run_json_records_the_temperature_actually_sent(server, transport, tmp_p
     assert cocobench(server, transport, out, "--model", "openai/gpt-4o-mini", "--model",
                      "openai/healthy", capsys=capsys)[0] == 0
     record = json.loads((out / "run.json").read_text())
-    assert record["model_settings"]["temperature"] == "auto"
+    assert record["request"]["model_settings"]["temperature"] == "auto"
     assert record["temperature_sent"] == {"openai/gpt-4o-mini": 0.0, "openai/healthy": None}
     sent = {body["model"]: body.get("temperature", "none") for body in server.requests}
     assert sent == {"gpt-4o-mini": 0.0, "healthy": "none"}  # as recorded

@@ -5,14 +5,16 @@ builds its `ThorController`s (with the process-wide controller pool, as in produ
 `tests/thor/fake_unity.py`. A test steers it through a control folder (the variable
 `CONTROL_VARIABLE` names it): ``tasks.json`` lists the task config files whose scenes are "in
 the build"; ``plan.json`` = ``{task_id: mode}`` makes a task's Unity die at its first step:
-``once`` (a marker file makes it once across processes), ``always``, or ``exit`` (the whole
-worker process dies with it, once).
+``once`` (a marker file makes it once across processes), ``always``, ``exit`` (the whole
+worker process dies with it, once), or ``hold`` (once: it hangs there, after writing the Ray
+node it runs on to ``TASK_ID.held``, until the test takes that node down).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -26,6 +28,7 @@ from tests.thor.fake_unity import META_ACTIONS, SceneLibrary, fake_factory
 
 CONTROL_VARIABLE = "COCOBENCH_TEST_FAKE_UNITY"
 UNITY_EXITED = "Unity exited"
+HOLD_S = 600.0  # a held episode's bound, should its node never be taken down
 VULKAN = Renderers("Linux", "libvulkan.so.1", "/usr/bin/vulkaninfo", "/usr/bin/nvidia-smi", None)
 NO_RENDERER = Renderers("Linux", None, None, None, None)
 
@@ -36,12 +39,18 @@ class Crash(dict):
     def __init__(self) -> None:
         super().__init__()
         self.armed: str | None = None
+        self.held: Path | None = None  # where a held episode says which node holds it
 
     def __contains__(self, action: object) -> bool:
         if self.armed is None or action in META_ACTIONS or action == "Initialize":
             return False
         if self.armed == "exit":
             os._exit(1)  # Unity took its worker process down with it
+        if self.armed == "hold" and self.held is not None:
+            import ray
+
+            self.held.write_text(ray.get_runtime_context().get_node_id())
+            time.sleep(HOLD_S)  # the test kills this node meanwhile
         return True
 
     def pop(self, action: Any, *default: Any) -> BaseException:
@@ -67,6 +76,7 @@ def fake_thor_backend(control: Path, pool: ControllerPool = POOL
 
     def make(config: TaskConfig, **options: Any) -> ThorController:
         crash.armed = _crash_mode(control, config.task_id)
+        crash.held = control / f"{config.task_id}.held"
         return ThorController(config, ThorOptions(**options), factory=factory, pool=pool)
 
     return make
@@ -81,7 +91,7 @@ def _crash_mode(control: Path, task_id: str) -> str | None:
         os.close(os.open(control / f"{task_id}.{mode}", os.O_CREAT | os.O_EXCL))
     except FileExistsError:
         return None
-    return "exit" if mode == "exit" else "crash"
+    return mode if mode in ("exit", "hold") else "crash"
 
 
 def install() -> None:

@@ -84,7 +84,7 @@ def test_run_json_records_every_suite_and_the_arms(two_suites):
     suites = record["prompt_suites"]
     assert [(s["arm"], s["spec"]) for s in suites] == [(BASE, BASE), (NO_HINT, NO_HINT)]
     assert suites[0]["content_hash"] != suites[1]["content_hash"]
-    assert record["cli_options"]["prompt_suite"] == [BASE, NO_HINT]
+    assert record["request"]["prompt_suites"] == [BASE, NO_HINT]
 
 
 def test_the_summary_has_an_arm_column_only_with_arms(two_suites, tmp_path, capsys):
@@ -177,8 +177,8 @@ def test_a_single_suite_run_is_laid_out_as_before(tmp_path):
     record = json.loads((out / "run.json").read_text())
     assert "prompt_suites" not in record and "arms" not in record["plan"]
     assert record["prompt_suite"]["spec"] == NO_HINT
-    assert record["cli_options"]["prompt_suite"] == NO_HINT  # a string, as before arms
-    assert record["cli_options"]["planner"] == "centralized"
+    assert record["request"]["prompt_suites"] == [NO_HINT]
+    assert record["request"]["planners"] == ["centralized"]
 
 
 def test_a_run_folder_recorded_before_arms_resumes(tmp_path, capsys):

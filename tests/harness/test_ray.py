@@ -106,13 +106,17 @@ def demo_plan(**options):
                          2, RunOptions(**options))
 
 
+RAY_ONLY = ("elapsed_s", "node", "requeued")  # where and when, not what, an episode ran
+
+
 def episodes(folder: RunFolder) -> dict[tuple, tuple]:
-    """Result lines by episode (without elapsed time) and trajectory texts; one line each."""
+    """Result lines by episode (without elapsed time, or where a Ray run ran it) and
+    trajectory texts; one line each."""
     out = {}
     for record in folder.results():
         key = (record["model"], record["condition"], record["task_id"], record["epoch"])
         assert key not in out, f"{key} recorded twice"
-        record = {k: v for k, v in record.items() if k != "elapsed_s"}
+        record = {k: v for k, v in record.items() if k not in RAY_ONLY}
         trajectory = record.get("trajectory")
         out[key] = (record, trajectory and (folder.path / trajectory).read_text())
     return out
@@ -141,6 +145,9 @@ def test_a_ray_run_equals_a_local_run(ray_cluster, tmp_path):
                    on_start=shapes.append)
     assert [len(s.capacities) for s in shapes] == [2]
     assert episodes(folder) == episodes(local_run(planned, tmp_path / "local"))
+    nodes = {record["node"] for record in folder.results()}
+    assert len(nodes) == 1 and len(nodes.pop()) == 56  # the one node's Ray id, in hex
+    assert not any("requeued" in record for record in folder.results())
     assert not list(folder.path.glob("**/*.tmp*")), "no temporary file left"
 
 

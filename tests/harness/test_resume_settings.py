@@ -73,7 +73,7 @@ def test_a_relative_task_source_resumes_from_another_directory(tmp_path, monkeyp
     assert main(["run", "--model", "greedy", "--task", "configs", "--limit", "2",
                  "--out", "run"]) == 0
     recorded = json.loads((work / "run" / "run.json").read_text())
-    assert all(Path(p).is_absolute() for p in recorded["cli_options"]["tasks"])
+    assert all(Path(p).is_absolute() for p in recorded["request"]["selection"]["sources"])
     forget_last_result(work / "run")
     monkeypatch.chdir(tmp_path)
     assert main(["run", "--out", str(work / "run"), "--resume"]) == 0

@@ -13,6 +13,7 @@ import pytest
 from benchmark_adapter.metrics import (
     ConstructScore,
     TrajectoryError,
+    construct_evidence,
     construct_score,
     cross_construct_scores,
 )
@@ -466,6 +467,45 @@ def test_cross_construct_applies_all_four_with_their_own_gating():
     assert scores["D3"] == construct_score(traj)
     # D4: no buffers -> 4 PickUps are transfers, no misses, no waits -> 1.0
     assert (scores["D4"].score, scores["D4"].sample) == (1.0, 4)
+
+
+# ---- evidence over time (what the viewer draws) --------------------------------------------
+
+
+def test_evidence_after_each_step_ends_with_the_scored_evidence():
+    traj = make_traj(k_config(optimal_makespan=5), knife_steps())
+    evidence = construct_evidence(traj)
+    assert (evidence.dim, evidence.exclusion_mode) == ("D3", "shared_tool")
+    assert evidence.exclusion_keys == {KNIFE}
+    assert len(evidence.history) == 10 and evidence.history[0] == {}  # a Find: no access yet
+    # the collisions as the knife pickups land: a1, a2 (c1), a3 (c2), a4
+    assert [h.get("collisions") for h in evidence.history] == [None, 0, 1, 1, 1, 2, 2, 2, 2, 2]
+    assert evidence.history[-1] == construct_score(traj).evidence
+
+
+def test_evidence_of_d2_names_its_containers():
+    evidence = construct_evidence(make_traj(d2_config(), premature_close_steps()))
+    assert evidence.containers == (BOX,) and evidence.buffer_occupancy == ()
+
+
+def test_evidence_of_d4_tracks_the_buffer_after_each_step():
+    steps = [
+        step("agent_1", "Put", APPLE, to=PLATE, objects=on_plate("item_1")),
+        step("agent_1", "Put", TOMATO, to=PLATE, objects=on_plate("item_1", "item_2")),
+        step("agent_2", "PickUp", APPLE, objects=on_plate("item_2")),
+        step("agent_2", "Wait", objects=on_plate("item_2")),
+    ]
+    evidence = construct_evidence(make_traj(d4_config(), steps))
+    assert (evidence.buffer_ids, evidence.buffer_capacity) == ((PLATE,), 1)
+    assert evidence.buffer_occupancy == (1, 2, 1, 1)
+    assert [h["occupancy_overflows"] for h in evidence.history] == [0, 1, 1, 1]
+    no_buffer = construct_evidence(make_traj(d4_config(buffers=False), steps))
+    assert (no_buffer.buffer_capacity, no_buffer.buffer_occupancy) == (None, ())
+
+
+def test_evidence_needs_one_of_the_four_dimensions():
+    with pytest.raises(TrajectoryError, match="'D9' is not one of D1, D2, D3, D4"):
+        construct_evidence(make_traj(make_config("D9"), [step("agent_1", "PickUp", BOX)]))
 
 
 # ---- oracle-shaped trajectories on real released configs ---------------------------------

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from cocobench_agents.graphs.episode_graph import build_episode_graph
+from cocobench_agents.episode_graph import build_episode_graph
 
 ROOT = Path(__file__).resolve().parents[2]
 TASK = {"task": "G_D1__DemoLivingRoom1__seed0", "suite": "demo", "model": "greedy",
@@ -56,6 +56,21 @@ def test_the_oracle_planner_solves_its_instance():
     assert final["result"]["task_success"] == 1
 
 
+def test_model_settings_are_the_run_requests(tmp_path):
+    from tests.models.fake_openai import FakeOpenAI, ok
+
+    with FakeOpenAI(default=ok("REASON: go\nACTION: 1")) as server:
+        state = {**TASK, "model": "openai/fake", "budget": 2,
+                 "model_settings": {"api_base": server.base_url, "temperature": 0.4,
+                                    "transport": "http"}}
+        final = stream(build_episode_graph().compile(), state)[-1][1]
+        assert server.count >= 1
+        assert all(body["temperature"] == 0.4 for body in server.requests)
+    assert final["result"]["num_steps"] == 2
+    with pytest.raises(ValueError, match="timeout_s"):
+        stream(build_episode_graph().compile(), {**TASK, "model_settings": {"timeout_s": 0}})
+
+
 def test_an_unknown_task_names_itself():
     with pytest.raises(ValueError, match="unknown task 'nope'"):
         stream(build_episode_graph().compile(), {"task": "nope", "suite": "demo"})
@@ -77,7 +92,7 @@ def langgraph_server(tmp_path_factory):
     work = tmp_path_factory.mktemp("langgraph")
     config = json.loads((ROOT / "langgraph.json").read_text())
     config["dependencies"] = [str(ROOT)]
-    config["graphs"] = {"episode": str(ROOT / "cocobench_agents/graphs/studio.py") + ":episode"}
+    config["graphs"] = {"episode": str(ROOT / config["graphs"]["episode"])}
     (work / "langgraph.json").write_text(json.dumps(config))
     port = _free_port()
     env = {**os.environ, "LANGGRAPH_CLI_NO_ANALYTICS": "1", "LANGSMITH_TRACING": "false"}

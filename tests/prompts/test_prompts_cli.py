@@ -232,7 +232,7 @@ def test_a_relative_suite_path_resumes_from_another_directory(
     assert cocobench(capsys, *RUN, "--prompt-suite", "suite+no-hint", "--out", "run")[0] == 0
     spec = f"{tmp_path / 'suite'}+no-hint"
     record = json.loads(Path("run/run.json").read_text())
-    assert record["prompt_suite"]["spec"] == record["cli_options"]["prompt_suite"] == spec
+    assert record["prompt_suite"]["spec"] == spec and record["request"]["prompt_suites"] == [spec]
     (tmp_path / "elsewhere").mkdir()
     monkeypatch.chdir(tmp_path / "elsewhere")
     code, _, err = cocobench(capsys, "run", "--out", tmp_path / "run", "--resume")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from benchmark_adapter.menu import AFFORDANCE_FLAGS
+from benchmark_adapter.vocabulary import AFFORDANCE_FLAGS
 
 # The flags that put an object in the menu, plus cookable (a state, not a menu affordance).
 FLAGS = (*AFFORDANCE_FLAGS, "cookable")

@@ -1,10 +1,14 @@
 """`episode`: a whole CoCoBench episode as one LangGraph graph, for LangGraph's own tooling.
 
 The planner graphs need a live `Episode` in their runtime context, which a LangGraph server
-cannot supply; this graph takes plain input (`{task, model, planner, obs_mode}`), builds the
+cannot supply; this graph takes plain input (`{task, model, planner, obs_mode,
+model_settings}`, the last with a run request's fields and validation), builds the
 episode itself, runs the chosen planner inside its one node, streams one custom event per
 landed step (``stream_mode="custom"``) and returns the scored result. `langgraph dev` serves it
 (see `langgraph.json`), and `langgraph_sdk`'s ``runs.wait`` / ``runs.stream`` run it.
+
+It is a door onto the episode runner, as `cocobench run` is, so it sits above the runner (the
+planner graphs in `graphs/` sit below it).
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ from typing_extensions import NotRequired, TypedDict
 
 from benchmark_adapter.tasks import TaskConfig, load_task, load_tasks
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec, run_episode
-from cocobench_agents.models import ModelPool
+from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
 
 DEFAULT_SOURCE = "cocobench-240"
@@ -37,6 +41,9 @@ class EpisodeInput(TypedDict):
     budget: NotRequired[int]  # landed steps allowed (default: the instance's step budget)
     backend: NotRequired[Literal["embedded", "ai2thor"]]
     prompt_suite: NotRequired[str]
+    #: How remote models are called: the fields of `ModelSettings`, as in a run request's
+    #: ``model_settings`` (api_base, api_key_env — a variable's NAME —, temperature, …).
+    model_settings: NotRequired[dict[str, Any]]
 
 
 class EpisodeOutput(TypedDict):
@@ -96,15 +103,16 @@ async def play(state: EpisodeState) -> dict[str, Any]:
 
 def _play(state: dict[str, Any], on_step: Callable[[dict[str, Any]], None]) -> dict[str, Any]:
     spec = episode_spec(state)  # type: ignore[arg-type]
+    settings = ModelSettings.model_validate(state.get("model_settings") or {})
     load_prompt_suite(spec.prompt_suite)  # read now, before the episode's event loop starts
-    document, result = asyncio.run(_run(spec, spec.controller(), on_step))
+    document, result = asyncio.run(_run(spec, settings, spec.controller(), on_step))
     return {"result": {**result.model_dump(mode="json"), "model": spec.model_for(None)},
             "trajectory": trajectory_summary(document)}
 
 
-async def _run(spec: EpisodeSpec, controller: Any, on_step: Callable[[dict[str, Any]], None]
-               ) -> tuple[dict[str, Any], Any]:
-    pool = ModelPool()
+async def _run(spec: EpisodeSpec, settings: ModelSettings, controller: Any,
+               on_step: Callable[[dict[str, Any]], None]) -> tuple[dict[str, Any], Any]:
+    pool = ModelPool(settings)
     try:
         return await run_episode(spec, pool, controller=controller, on_step=on_step)
     finally:
@@ -128,3 +136,7 @@ def build_episode_graph() -> StateGraph:
     graph.add_edge(START, "play")
     graph.add_edge("play", END)
     return graph
+
+
+#: The compiled graph `langgraph.json` serves as `episode`.
+episode = build_episode_graph().compile()

@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemainingColumn
 from rich.progress import Progress as RichProgress
 
+from cocobench_agents.engine import events
 from cocobench_agents.harness.infra import is_infra_failure
 
 #: Off a terminal, a status line every this many seconds (and at the end).
@@ -115,3 +116,31 @@ def _duration(seconds: float) -> str:
     if seconds >= 3600:
         return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m"
     return f"{seconds // 60}m{seconds % 60:02d}s"
+
+
+class RunView:
+    """Draws the engine's events: notices on stderr, the run's size, then a `Progress` of
+    the episodes as they are recorded."""
+
+    def __init__(self, stream: TextIO | None = None) -> None:
+        self.stream = stream or sys.stderr
+        self.progress: Progress | None = None
+
+    def __call__(self, event: events.Event) -> None:
+        if isinstance(event, events.Notice):
+            prefix = "cocobench: warning: " if event.warning else ""
+            print(f"{prefix}{event.message}", file=self.stream, flush=True)
+        elif isinstance(event, events.RunStarted):
+            print(f"{event.total} episodes ({event.done} already done) → {event.folder}",
+                  file=self.stream, flush=True)
+            if event.done < event.total:
+                self.progress = Progress(event.total, already_done=event.done,
+                                         stream=self.stream)
+        elif isinstance(event, events.EpisodeRecorded) and self.progress is not None:
+            self.progress.episode_done(event.record)
+
+    def close(self) -> None:
+        """End the live display (the run ended, or stopped)."""
+        if self.progress is not None:
+            self.progress.close()
+            self.progress = None

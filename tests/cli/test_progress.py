@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import io
 
-from cocobench_agents.harness import Progress
+from cocobench_agents.cli.progress import Progress
 
 OK = {"model": "m", "condition": "C0_image", "task_id": "t1", "task_success": 1,
       "num_steps": 3, "usage": {"prompt_tokens": 1000, "completion_tokens": 200,

@@ -1,0 +1,70 @@
+"""What the engine tells a front end while a run goes: any door (the command line's rich
+progress, a notebook, a web page) draws these; the engine itself prints nothing.
+
+Step events come from episodes run in this process (the local executor with one worker);
+worker processes and Ray report whole episodes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Notice:
+    """Something the user should read that does not stop the run (a repaired results file,
+    a lock taken over from a dead process, tasks an index lists but are absent, where Ray
+    runs the episodes)."""
+
+    message: str
+    warning: bool = True  # False: for information only (where a Ray run's workers are)
+
+
+@dataclass(frozen=True)
+class RunStarted:
+    """The plan is made and checked; `total` episodes, `done` of them already recorded."""
+
+    folder: Path
+    total: int
+    done: int
+
+
+@dataclass(frozen=True)
+class EpisodeStarted:
+    """An episode began (its key as in result lines: model, condition, arm, task, epoch)."""
+
+    key: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class StepLanded:
+    """One step of an episode landed in the simulator (its trajectory item)."""
+
+    key: dict[str, Any]
+    step: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class EpisodeRecorded:
+    """An episode's result line was appended to the run folder."""
+
+    record: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class LimitReached:
+    """A spend limit stopped the starting of new episodes."""
+
+    description: str
+    left: int
+
+
+Event = Notice | RunStarted | EpisodeStarted | StepLanded | EpisodeRecorded | LimitReached
+EventHandler = Callable[[Event], None]
+
+
+def ignore(event: Event) -> None:
+    """The handler of a run nobody watches."""

@@ -1,0 +1,62 @@
+"""Running the pending episodes of a run on the executor the request names: this process
+(asyncio), worker processes, or Ray. Nothing here imports Ray until a Ray run starts."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from cocobench_agents.engine.request import ExecutionSettings, RunRequest
+from cocobench_agents.harness.batch import ResultCallback, execute_and_close
+from cocobench_agents.harness.limits import SpendLimit
+from cocobench_agents.harness.plan import PlannedEpisode
+from cocobench_agents.harness.store import RunFolder
+from cocobench_agents.harness.workers import available_cores, execute_in_workers
+from cocobench_agents.models import ModelPool
+
+
+def check_executor(execution: ExecutionSettings) -> None:
+    """What can be checked of the executor before anything is recorded: Ray installed, the
+    cluster's address answering (`RayUnavailable`, a user error)."""
+    if execution.executor != "ray":
+        return
+    from cocobench_agents.harness.ray_session import check_reachable, require_ray
+
+    require_ray()
+    if execution.ray_address:
+        check_reachable(execution.ray_address)
+
+
+def execute(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ModelPool,
+            request: RunRequest, *, on_result: ResultCallback, limit: SpendLimit | None,
+            notify: Callable[[str], None], **hooks: Any) -> None:
+    """Run `episodes` into `folder` as `request.execution` says; each result goes to
+    `on_result` once appended. `hooks` (``on_start``, ``on_step``) reach episodes run in
+    this process."""
+    execution = request.execution
+    options: dict[str, Any] = {"limit": limit,
+                               "episode_timeout_s": request.limits.episode_timeout or None}
+    if execution.executor == "ray":
+        _on_ray(episodes, folder, pool, execution, on_result, notify, options)
+        return
+    workers = 1 if execution.workers is None else execution.workers or available_cores()
+    if workers > 1:
+        execute_in_workers(episodes, folder, pool.settings, jobs=execution.jobs,
+                           workers=workers, on_result=on_result, **options)
+    else:
+        asyncio.run(execute_and_close(episodes, folder, pool, jobs=execution.jobs,
+                                      on_result=on_result, **options, **hooks))
+
+
+def _on_ray(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ModelPool,
+            execution: ExecutionSettings, on_result: ResultCallback,
+            notify: Callable[[str], None], options: dict[str, Any]) -> None:
+    from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
+
+    ray_options = RayOptions(address=execution.ray_address, workers=execution.workers or 0,
+                             thor_gpus_per_worker=execution.thor_gpus_per_worker)
+    where = execution.ray_address or "a local Ray"
+    execute_on_ray(episodes, folder, pool.settings, jobs=execution.jobs, options=ray_options,
+                   on_result=on_result, **options,
+                   on_start=lambda shape: notify(f"{shape.describe()} on {where}"))

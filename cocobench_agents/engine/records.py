@@ -1,0 +1,239 @@
+"""The request as `run.json` keeps it, read back, and as an equivalent command line.
+
+`run.json` stores the request once, under ``"request"``: `RunRequest.model_dump` with
+credentials redacted and paths canonical (`record_request`). `request_from_record` reads it
+back with `RunRequest.model_validate`; run folders written by earlier versions (whose
+settings were spread over ``cli_options``, ``options``, ``model_settings`` and an older
+``request``) are read through `upgrade`, the documented converter (docs/python-api.md).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import platform
+import shlex
+from collections.abc import Mapping
+from importlib import metadata
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from pydantic import ValidationError
+
+from cocobench_agents.engine.errors import RequestError
+from cocobench_agents.engine.request import RunRequest, iter_fields, value_at
+from cocobench_agents.harness.store import RunFolderError
+from cocobench_agents.models.secrets import REDACTED, redact_named, redact_obj, redact_url
+from cocobench_agents.setting_kinds import flag_of
+from cocobench_agents.version import __version__
+
+if TYPE_CHECKING:
+    from cocobench_agents.engine.resolve import ResolvedRun
+
+#: `run.json`'s layout: 2 is the one-request layout.
+RECORD_VERSION = 2
+PACKAGES = ("cocobench-agents", "langgraph", "litellm", "pydantic", "pillow", "ai2thor")
+
+
+def run_record(resolved: ResolvedRun) -> dict[str, Any]:
+    """`run.json`: the request (once), what it resolved to, and what a resume checks the
+    code against (prompt-suite and planner-file hashes, package versions). No secret."""
+    from cocobench_agents.graphs.plugins import planners_record
+    from cocobench_agents.models import is_builtin
+
+    request = resolved.request
+    settings = request.model_settings
+    recorded = record_request(request)
+    return {
+        "record_version": RECORD_VERSION,
+        "name": request.out.name,
+        "created_at": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+        "cocobench_agents": __version__,
+        "versions": {"python": platform.python_version(), **_package_versions()},
+        "request": recorded,
+        "command": command_line(RunRequest.model_validate(recorded)),
+        "plan": resolved.plan_record(),
+        **_suites_record(resolved),
+        # planners from the researcher's code: code, origin, file hash (guards a resume)
+        "planners": planners_record(c.planner for c in resolved.conditions),
+        # What "auto" resolved to, per remote model: the temperature sent (None: none sent).
+        "temperature_sent": {
+            model: settings.temperature_for(model)
+            for model in dict.fromkeys([*resolved.models, *request.agent_models.values()])
+            if not is_builtin(model) and model != "oracle"},
+    }
+
+
+def _suites_record(resolved: ResolvedRun) -> dict[str, Any]:
+    """The prompt suite (spec, version, content hash, a folder's path), or with arms each
+    arm's suite: what a resume checks the suites against."""
+    arms = resolved.options.arms
+    by_spec = {suite.spec: suite for suite in resolved.suites}
+    if not arms:
+        return {"prompt_suite": resolved.suites[0].record()}
+    return {"prompt_suites": [{"arm": arm, **by_spec[spec].record()}
+                              for arm, spec in arms.items()]}
+
+
+def _package_versions() -> dict[str, str]:
+    out = {}
+    for name in PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
+    return out
+
+
+def record_request(request: RunRequest) -> dict[str, Any]:
+    """`request` as JSON for `run.json`: credentials redacted (a key is never in a request:
+    only its variable's name)."""
+    data = request.model_dump(mode="json")
+    settings = data["model_settings"]
+    settings["api_base"] = redact_url(settings["api_base"])
+    settings["extra_params"] = redact_named(settings["extra_params"])
+    return redact_obj(data, request.model_settings.secrets())  # type: ignore[return-value]
+
+
+def redacted_settings(request: RunRequest) -> list[str]:
+    """The settings of `request` that still hold a redacted credential (a resumed request
+    whose credentials were not given again)."""
+    data = request.model_dump(mode="json")
+    return [".".join(path) for path, _ in iter_fields()
+            if REDACTED in json.dumps(at_path(data, path))]
+
+
+def request_from_record(record: Mapping[str, Any], where: Path) -> RunRequest:
+    """The request recorded in `run.json` (at `where`, for messages), of any version."""
+    if not isinstance(record.get("plan"), Mapping):
+        raise RunFolderError(f"{where}: not a run record (no plan)")
+    data = record.get("request") if record.get("record_version") == RECORD_VERSION \
+        else upgrade(record)
+    try:
+        return RunRequest.model_validate(data)
+    except ValidationError as exc:
+        problems = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}"
+                             for e in exc.errors(include_url=False))
+        raise RequestError(f"{where}: the recorded request is not valid ({problems})") from None
+
+
+#: Options of the earlier command line whose request field has another name.
+_RENAMED = {"planner": "planners", "obs_mode": "obs_modes", "prompt_suite": "prompt_suites",
+            "task_id": "task_ids", "timeout": "timeout_s", "extra_json": "extra_params",
+            "cache_dir": "cache_dir"}
+_GROUPS = {"selection": ("eval_set", "only_cell", "only_family", "only_dim", "task_ids",
+                         "limit", "missing"),
+           "execution": ("executor", "jobs", "workers", "ray_address", "thor_gpus_per_worker"),
+           "limits": ("max_cost", "max_total_tokens", "episode_timeout"),
+           "model_settings": ("api_base", "api_key_env", "timeout_s", "max_retries",
+                              "max_concurrency", "temperature", "max_tokens", "extra_params",
+                              "grammar", "cache_dir", "seed", "transport")}
+
+
+def upgrade(record: Mapping[str, Any]) -> dict[str, Any]:
+    """The request of a `run.json` written before the one-request layout (version 1):
+
+    * with ``cli_options`` (every option of the command, by its option name): each option
+      becomes its field (``--planner`` → ``planners``, ``--timeout`` → ``model_settings.
+      timeout_s``, ``--task``/``--suite`` → ``selection.sources``, …);
+    * older, without: ``request`` (the plan's sources, models, conditions, task ids, epochs,
+      prompt suite, backend, step budget and ids) and ``model_settings``.
+    """
+    options = record.get("cli_options")
+    if isinstance(options, Mapping):
+        flat = {_RENAMED.get(k, k): v for k, v in options.items()}
+        flat["sources"] = _listed(flat.pop("tasks", None)) or _listed(flat.pop("suite", None))
+        flat.pop("suite", None)
+        if flat.get("temperature") is None:
+            flat.pop("temperature", None)  # the old default: the reference's rule ("auto")
+    else:
+        old = record.get("request") if isinstance(record.get("request"), Mapping) else {}
+        settings = record.get("model_settings") if isinstance(
+            record.get("model_settings"), Mapping) else {}
+        flat = {**settings, "sources": _listed(old.get("tasks")) or _listed(old.get("suite")),
+                "models": old.get("models"), "agent_models": old.get("agent_models"),
+                "conditions": old.get("conditions"), "epochs": old.get("epochs"),
+                "task_ids": old.get("task_id"), "prompt_suites": old.get("prompt_suite"),
+                "backend": old.get("backend"), "max_steps": old.get("max_steps"),
+                "stable_ids": old.get("stable_ids")}
+    flat["out"] = flat.get("out") or "."
+    return _nest({k: v for k, v in flat.items() if v is not None or k in _NULLABLE})
+
+
+_NULLABLE = frozenset({"max_steps", "conditions", "max_tokens", "seed", "api_base",
+                       "api_key_env", "max_cost", "max_total_tokens", "ray_address"})
+
+
+def _nest(flat: dict[str, Any]) -> dict[str, Any]:
+    """Flat field names into the request's groups; names no field has are dropped (options
+    of other versions: no_preflight, resume, …)."""
+    group_of = {name: group for group, names in _GROUPS.items() for name in names}
+    group_of["sources"] = "selection"
+    top = set(RunRequest.model_fields)
+    nested: dict[str, Any] = {}
+    for name, value in flat.items():
+        if name in group_of:
+            nested.setdefault(group_of[name], {})[name] = value
+        elif name in top:
+            nested[name] = value
+    known = {group: set(RunRequest.model_fields[group].annotation.model_fields)  # type: ignore[union-attr]
+             for group in _GROUPS}
+    for group, values in list(nested.items()):
+        if group in known:
+            nested[group] = {k: v for k, v in values.items() if k in known[group]}
+    return nested
+
+
+def _listed(value: Any) -> list[str]:
+    if value in (None, "", [], ()):
+        return []
+    return [value] if isinstance(value, str) else [str(v) for v in value]
+
+
+def command_line(request: RunRequest) -> str:
+    """An equivalent ``cocobench run …`` line: the flags of every setting that differs from
+    its default (settings without a flag, in a config file only, are said in a comment)."""
+    default = RunRequest(out=request.out)
+    words = ["cocobench", "run"]
+    file_only = []
+    for path, info in iter_fields():
+        value = value_at(request, path)
+        if value == value_at(default, path) and path != ("out",):
+            continue
+        flag = flag_of(info)
+        if flag is None:
+            file_only.append(".".join(path))
+            continue
+        words += _flag_words(path[-1], flag, value)
+    line = " ".join(shlex.quote(w) for w in words)
+    if file_only:
+        line += f"  # and in a config file: {', '.join(file_only)}"
+    return line
+
+
+def _flag_words(name: str, flag: str, value: Any) -> list[str]:
+    if name == "sources":
+        return ["--suite", value[0]] if len(value) == 1 else [
+            w for v in value for w in ("--task", v)]
+    if name == "preflight":
+        return [] if value else ["--no-preflight"]
+    if isinstance(value, bool):
+        return [flag] if value else []
+    if name == "agent_models":
+        return [w for agent, model in value.items() for w in (flag, f"{agent}={model}")]
+    if name == "conditions":
+        return [flag, ",".join(value)]
+    if name == "extra_params":
+        return [flag, json.dumps(value, sort_keys=True)]
+    if isinstance(value, list):
+        return [w for v in value for w in (flag, str(v))]
+    if value is None:
+        return [flag, "none"] if name == "temperature" else []
+    return [flag, str(value)]
+
+
+def at_path(data: Mapping[str, Any], path: tuple[str, ...]) -> Any:
+    """The value at `path` in a request's JSON form."""
+    for part in path:
+        data = data[part]
+    return data

@@ -1,0 +1,255 @@
+"""`RunRequest`: every setting of a run, typed, in one frozen object.
+
+The command line, config files, ``COCOBENCH_RUN_*`` variables, `evaluate()`, the LangGraph
+`episode` graph and the Ray driver all end in one of these; `run(request)` is the only way
+into a run. Each field says where it is defined whether changing it changes what is sent or
+scored (`shaping`: a resumed run refuses a change) or only how the run goes (`run_setting`:
+a resume accepts it); see `setting_kinds`.
+
+Importing this module is cheap: no LangGraph, LiteLLM, click or rich.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, field_validator, model_validator
+from pydantic.fields import FieldInfo
+
+from cocobench_agents.models.settings import ModelSettings
+from cocobench_agents.prompts.suite import DEFAULT_SUITE
+from cocobench_agents.setting_kinds import Kind, kind_of, run_setting, shaping
+
+DEFAULT_SOURCE = "cocobench-240"
+BACKENDS = ("embedded", "ai2thor")
+
+
+class Settings(BaseModel):
+    """A frozen group of settings that refuses unknown keys (a typo in a config file is an
+    error, not a silently ignored setting)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+
+def _one_or_more(value: Any) -> Any:
+    """A list field given one value (``models="greedy"``, one ``--model``) is a list of it."""
+    return [value] if isinstance(value, (str, Path)) else value
+
+
+class TaskSelection(Settings):
+    """Which instances run: sources, then the reference's eval-set selection."""
+
+    sources: list[str] = shaping(
+        default_factory=lambda: [DEFAULT_SOURCE], flag="--task", min_length=1,
+        description="Suite names (cocobench-240, cocobench-full, demo), task-config files or "
+                    "folders, the reference's index.json, or subset files such as rep240.json.")
+    eval_set: list[str] = shaping(
+        default_factory=list, flag="--eval-set",
+        description="Cells, dims, families, curated sets or task ids to keep.")
+    only_cell: str | None = shaping(None, flag="--only-cell",
+                                    description="Keep only this cell (e.g. A_D1).")
+    only_family: str | None = shaping(None, flag="--only-family",
+                                      description="Keep only this task family.")
+    only_dim: str | None = shaping(
+        None, flag="--only-dim", description="Keep only this coordination dimension (D1..D4).")
+    task_ids: list[str] = shaping(default_factory=list, flag="--task-id",
+                                  description="Keep only these task ids.")
+    limit: int = shaping(0, flag="--limit", ge=0, description="At most K instances (0: all).")
+    missing: Literal["skip", "error"] = shaping(
+        "skip", flag="--missing",
+        description="Tasks an index or subset file lists but whose configs are absent: skip "
+                    "them with a warning (as the reference's eval-set selection) or stop.")
+
+    _lists = field_validator("sources", "eval_set", "task_ids", mode="before")(
+        classmethod(lambda cls, v: _one_or_more(v)))
+
+
+class ExecutionSettings(Settings):
+    """Where and how many episodes run at once. Results do not depend on these."""
+
+    executor: Literal["local", "ray"] = run_setting(
+        "local", flag="--executor",
+        description="Where episodes run: this process (and --workers processes), or Ray "
+                    "workers on this machine or a cluster (pip install "
+                    "'cocobench-agents[ray]'; see docs/distributed.md).")
+    jobs: int = run_setting(8, flag="--jobs", ge=1, description="Episodes run concurrently.")
+    workers: int | None = run_setting(
+        None, flag="--workers", ge=0,
+        description="Processes sharing the jobs (0: one per core; default 1). With ray: Ray "
+                    "workers (default: as many as fit).")
+    ray_address: str | None = run_setting(
+        None, flag="--ray-address",
+        description="With executor ray: join the cluster whose head is at HOST:PORT "
+                    "(default: start a private local Ray).")
+    thor_gpus_per_worker: float = run_setting(
+        0.25, flag="--thor-gpus-per-worker", ge=0,
+        description="With executor ray and backend ai2thor: the GPU share of each worker "
+                    "(one Unity each); 0 for CPU nodes.")
+
+    @model_validator(mode="after")
+    def _address_needs_ray(self) -> ExecutionSettings:
+        if self.ray_address and self.executor != "ray":
+            raise ValueError("ray_address (--ray-address) needs executor ray")
+        return self
+
+
+class Limits(Settings):
+    """When the run stops starting episodes, and how long one may take."""
+
+    max_cost: float | None = run_setting(
+        None, flag="--max-cost", ge=0,
+        description="USD: stop starting episodes once the run's model calls cost this much "
+                    "(episodes in flight finish; a resume with a higher limit completes).")
+    max_total_tokens: int | None = run_setting(
+        None, flag="--max-total-tokens", ge=0,
+        description="Stop starting episodes once the run's model calls used this many tokens "
+                    "(prompt + completion).")
+    episode_timeout: float = run_setting(
+        7200.0, flag="--episode-timeout", ge=0,
+        description="Wall-clock seconds an episode may run before it ends as an "
+                    "infrastructure error (0: no limit).")
+
+
+class RunRequest(Settings):
+    """Every setting of a run: what runs (instances, models, planners or conditions, prompt
+    suites, epochs), how models are called, where episodes execute, and the limits.
+
+    Every model × condition × prompt-suite arm × instance × epoch is one episode.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid", protected_namespaces=())
+
+    out: Path = run_setting(flag="--out", description="The run folder.")
+    selection: TaskSelection = shaping(default_factory=TaskSelection,
+                                       description="Which instances run.")
+    models: list[str] = shaping(
+        default_factory=list, flag="--model",
+        description="LiteLLM model strings or built-ins (greedy, random[:SEED], "
+                    "scripted:PATH, replay:PATH).")
+    agent_models: dict[str, str] = shaping(
+        default_factory=dict, flag="--agent-model",
+        description="A different model for one agent of a decentralized team "
+                    "(AGENT=MODEL, or a mapping in a config file).")
+    planners: list[str] = shaping(
+        default_factory=lambda: ["centralized"], flag="--planner", min_length=1,
+        description="centralized, decentralized, decentralized-broadcast, leader-worker, "
+                    "oracle, an installed planner (`cocobench planners`) or your own "
+                    "(FILE.py:NAME, module:NAME). Several: each is an arm (its condition, "
+                    "under each observation mode).")
+    obs_modes: list[Literal["image", "blind"]] = shaping(
+        default_factory=lambda: ["image"], flag="--obs", min_length=1,
+        description="Observation modes the planners run under.")
+    conditions: list[str] | None = shaping(
+        None, flag="--conditions",
+        description="Instead of planners × observation modes: all, image, blind, or "
+                    "condition names such as C0_image,D1_blind.")
+    prompt_suites: list[str] = shaping(
+        default_factory=lambda: [DEFAULT_SUITE], flag="--prompt-suite", min_length=1,
+        description="Prompt suites: shipped names or suite folders, with ablations joined by "
+                    "'+' (cocobench-v1+no-hint). Several: each is an arm, crossed with models "
+                    "and conditions.")
+    epochs: int = shaping(1, flag="--epochs", ge=1,
+                          description="Runs of every episode (seeds differ per epoch).")
+    baselines: bool = shaping(
+        False, flag="--baselines",
+        description="Also run the reference rows on the same instances: the oracle (the "
+                    "upper bound) and the greedy and random built-in models.")
+    backend: Literal["embedded", "ai2thor"] = shaping(
+        "embedded", flag="--backend",
+        description="Simulator: the embedded one, or real AI2-THOR (pip install "
+                    "'cocobench-agents[thor]').")
+    max_steps: int | None = shaping(None, flag="--max-steps", ge=1,
+                                    description="Override every instance's step budget.")
+    stable_ids: bool = shaping(
+        False, flag="--stable-ids",
+        description="Menu ids that never shift within an episode (deviation from the "
+                    "reference).")
+    model_settings: ModelSettings = shaping(
+        default_factory=ModelSettings, description="How remote models are called.")
+    execution: ExecutionSettings = run_setting(
+        default_factory=ExecutionSettings, description="Where and how many episodes run.")
+    limits: Limits = run_setting(default_factory=Limits,
+                                 description="Spend limits and the episode timeout.")
+    preflight: bool = run_setting(
+        True, flag="--preflight",
+        description="One call per remote model and input kind before any episode starts "
+                    "(it stops the run when the provider refuses).")
+
+    _lists = field_validator("models", "planners", "obs_modes", "prompt_suites",
+                             mode="before")(classmethod(lambda cls, v: _one_or_more(v)))
+
+    @field_validator("conditions", mode="before")
+    @classmethod
+    def _condition_list(cls, value: Any) -> Any:
+        """``"C0_image,D1_blind"`` (a flag, a variable) is two conditions."""
+        if isinstance(value, str):
+            return [part.strip() for part in value.split(",") if part.strip()]
+        return value
+
+    @field_validator("agent_models", mode="before")
+    @classmethod
+    def _agent_pairs(cls, value: Any) -> Any:
+        """``["agent_2=gpt-4o"]`` (flags, a variable) is ``{"agent_2": "gpt-4o"}``."""
+        if isinstance(value, str):
+            value = value.split()
+        if not isinstance(value, (list, tuple)):
+            return value
+        pairs = {}
+        for pair in value:
+            agent, sep, model = str(pair).partition("=")
+            if not sep or not agent.strip() or not model.strip():
+                raise ValueError(f"{pair!r}: expected AGENT=MODEL, e.g. agent_2=gpt-4o")
+            pairs[agent.strip()] = model.strip()
+        return pairs
+
+
+def iter_fields(model: type[BaseModel] = RunRequest, prefix: tuple[str, ...] = ()
+                ) -> Iterator[tuple[tuple[str, ...], FieldInfo]]:
+    """Every leaf setting of `model` as (path, field), nested groups walked in order."""
+    for name, info in model.model_fields.items():
+        path = (*prefix, name)
+        annotation = info.annotation
+        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            yield from iter_fields(annotation, path)
+        else:
+            yield path, info
+
+
+def kind(path: tuple[str, ...] | str) -> Kind:
+    """Whether the setting at `path` (``("model_settings", "temperature")`` or
+    ``"model_settings.temperature"``) is shaping or a run setting."""
+    parts = tuple(path.split(".")) if isinstance(path, str) else path
+    fields = dict(iter_fields())
+    if parts not in fields:
+        raise KeyError(".".join(parts))
+    return kind_of(fields[parts])
+
+
+def leaf_paths() -> dict[str, tuple[str, ...]]:
+    """Each leaf setting's name → its path (leaf names are unique across the request, so a
+    flag or a ``COCOBENCH_RUN_*`` variable names one setting)."""
+    return {path[-1]: path for path, _ in iter_fields()}
+
+
+def value_at(request: BaseModel, path: tuple[str, ...]) -> Any:
+    """The value of the setting at `path`."""
+    value: Any = request
+    for part in path:
+        value = getattr(value, part)
+    return value
+
+
+def nest(flat: dict[str, Any]) -> dict[str, Any]:
+    """Settings by leaf name (``{"jobs": 4}``) nested as the request holds them
+    (``{"execution": {"jobs": 4}}``)."""
+    paths = leaf_paths()
+    nested: dict[str, Any] = {}
+    for name, value in flat.items():
+        *groups, leaf = paths[name]
+        node = nested
+        for group in groups:
+            node = node.setdefault(group, {})
+        node[leaf] = value
+    return nested

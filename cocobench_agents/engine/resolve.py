@@ -1,0 +1,146 @@
+"""From a request to the episodes it stands for: canonical references, the instances its
+sources select, its conditions and arms, the baselines.
+
+Loading is checked here (unusable configs, unknown conditions, colliding arms: each a user
+error naming the file or the setting), before anything is written.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from benchmark_adapter.tasks import MissingTasksWarning, TaskConfig, load_tasks, select_tasks
+from cocobench_agents.engine.errors import RequestError
+from cocobench_agents.engine.request import RunRequest
+from cocobench_agents.graphs import planner_spec
+from cocobench_agents.harness.plan import (
+    SHORTCUTS,
+    Condition,
+    PlannedEpisode,
+    RunOptions,
+    parse_conditions,
+    plan_episodes,
+    planner_conditions,
+    suite_arms,
+)
+from cocobench_agents.prompts import PromptSuite, load_prompt_suite
+
+BASELINE_MODELS = ("greedy", "random")
+
+
+@dataclass(frozen=True)
+class ResolvedRun:
+    """What a request resolved to: its instances, models (with baselines), conditions,
+    arms, and the episodes they make."""
+
+    request: RunRequest
+    tasks: list[TaskConfig]
+    models: list[str]
+    conditions: list[Condition]
+    planner_arms: list[str]
+    suites: list[PromptSuite]
+    options: RunOptions
+    episodes: list[PlannedEpisode]
+
+    @property
+    def remote_model_modes(self) -> set[str]:
+        """Observation modes under which some condition calls the models."""
+        return {c.obs_mode for c in self.conditions if planner_spec(c.planner).uses_models}
+
+    def plan_record(self) -> dict[str, Any]:
+        """`run.json`'s ``plan``: what the request resolved to (the reports count planned
+        episodes from it, and a resume checks that the sources still select the same)."""
+        return {"task_ids": [t.task_id for t in self.tasks], "models": self.models,
+                "conditions": [c.name for c in self.conditions],
+                **({"arms": list(self.options.arms)} if self.options.arms else {}),
+                **({"planner_arms": self.planner_arms} if self.planner_arms else {})}
+
+
+def canonical(request: RunRequest) -> RunRequest:
+    """`request` with every reference in one spelling, so that two spellings of one run
+    compare equal: paths absolute, prompt suites as their canonical spec, planner files
+    absolute, condition shortcuts expanded."""
+    selection = request.selection.model_copy(
+        update={"sources": [_absolute(s) for s in request.selection.sources]})
+    settings = request.model_settings
+    if settings.cache_dir is not None:
+        settings = settings.model_copy(update={"cache_dir": settings.cache_dir.resolve()})
+    conditions = None if request.conditions is None else list(dict.fromkeys(
+        _planner_ref(name) for part in request.conditions
+        for name in SHORTCUTS.get(part, [part])))
+    return request.model_copy(update={
+        "out": request.out.resolve(), "selection": selection, "model_settings": settings,
+        "prompt_suites": list(dict.fromkeys(load_prompt_suite(s).spec
+                                            for s in request.prompt_suites)),
+        "planners": [_planner_ref(p) for p in request.planners], "conditions": conditions})
+
+
+def resolve(request: RunRequest, notify: Callable[[str], None]) -> ResolvedRun:
+    """The episodes of a canonical `request` (`notify` hears about skipped missing tasks)."""
+    planners = [] if request.conditions else request.planners
+    conditions = (parse_conditions(",".join(request.conditions)) if request.conditions
+                  else planner_conditions(planners, request.obs_modes))
+    # several planners: each is an arm (its conditions), paired in the report
+    planner_arms = [c.name for c in conditions] if len(planners) > 1 else []
+    needs_model = any(planner_spec(c.planner).uses_models for c in conditions)
+    models = list(request.models) or ([] if needs_model else ["oracle"])
+    if request.baselines:
+        models, conditions = with_baselines(models, conditions)
+    if needs_model and not models:
+        raise RequestError("no model given: --model is required (e.g. --model greedy, or a "
+                           "LiteLLM model)")
+    suites = [load_prompt_suite(spec) for spec in request.prompt_suites]
+    selection = request.selection
+    tasks = [t for source in selection.sources
+             for t in load_source(source, selection.missing, notify)]
+    tasks = select_tasks(tasks, selection.eval_set, only_cell=selection.only_cell,
+                         only_family=selection.only_family, only_dim=selection.only_dim,
+                         task_ids=selection.task_ids, limit=selection.limit)
+    options = RunOptions(backend=request.backend, prompt_suite=suites[0].spec,
+                         arms=suite_arms(suites), max_steps=request.max_steps,
+                         stable_ids=request.stable_ids, agent_models=request.agent_models)
+    episodes = plan_episodes(tasks, models, conditions, request.epochs, options)
+    return ResolvedRun(request, tasks, models, conditions, planner_arms, suites, options,
+                       episodes)
+
+
+def with_baselines(models: list[str], conditions: list[Condition]
+                   ) -> tuple[list[str], list[Condition]]:
+    """`models` and `conditions` plus the reference rows: the greedy and random built-ins
+    under every condition, and the oracle (the upper bound) under each observation mode."""
+    models = [*models, *(m for m in BASELINE_MODELS if m not in models)]
+    oracles = [Condition("oracle", obs) for obs in dict.fromkeys(c.obs_mode for c in conditions)]
+    return models, [*conditions, *(c for c in oracles if c not in conditions)]
+
+
+def load_source(source: str, missing: str, notify: Callable[[str], None]) -> list[TaskConfig]:
+    """The tasks of one source; tasks it lists but whose configs are absent are told to
+    `notify` in one line (with ``missing="skip"``)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", MissingTasksWarning)
+        tasks = load_tasks(source, missing=missing)
+    for warning in caught:
+        if issubclass(warning.category, MissingTasksWarning):
+            notify(str(warning.message))
+        else:
+            warnings.showwarning(warning.message, warning.category, warning.filename,
+                                 warning.lineno)
+    return tasks
+
+
+def _absolute(source: str) -> str:
+    path = Path(source)
+    return str(path.resolve()) if path.exists() else source
+
+
+def _planner_ref(text: str) -> str:
+    """A planner reference (or a condition naming one, ``FILE.py:NAME_image``) with its
+    file, if any, made absolute."""
+    target, sep, name = text.rpartition(":")
+    if sep and (target.endswith(".py") or "/" in target) and Path(target).is_file():
+        return f"{Path(target).resolve()}:{name}"
+    return text

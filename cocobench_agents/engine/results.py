@@ -1,0 +1,30 @@
+"""`EvalResults`: what a run returns, read from its run folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+
+class EvalResults(list):
+    """The result lines of a run (one dict per episode, the fields of ``results.jsonl``).
+
+    `folder` is the run folder; `errors` counts episodes that the model's infrastructure or
+    the harness ended; `stopped` says why the run did not finish every episode (a spend
+    limit), or is None.
+    """
+
+    def __init__(self, records: list[dict[str, Any]], folder: Path, errors: int,
+                 stopped: str | None) -> None:
+        super().__init__(records)
+        self.folder, self.errors, self.stopped = folder, errors, stopped
+
+
+def collect_results(out: Path, stopped: str | None = None) -> EvalResults:
+    """The latest result line of every episode recorded in run folder `out`."""
+    from cocobench_agents.harness.infra import count_infra_failures
+    from cocobench_agents.harness.store import RunFolder
+    from cocobench_agents.harness.summary import latest
+
+    records = latest(RunFolder(out).results())
+    return EvalResults(records, Path(out), count_infra_failures(records), stopped)

@@ -1,0 +1,188 @@
+"""The engine: `run(request)` runs a `RunRequest` into its run folder and returns the results.
+
+Every door ends here: `cocobench run` (flags, config files, ``COCOBENCH_RUN_*``),
+`evaluate()`, the LangGraph `episode` graph's batch sibling and the Ray driver. The engine
+prints nothing and imports neither click nor rich; it tells a front end what happens through
+`on_event` (`events`), and raises `RequestError` for a mistake in the request (nothing run)
+or `RunStopped` when a run stops early (what finished is recorded).
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from typing import Any
+
+from cocobench_agents.engine import events
+from cocobench_agents.engine.errors import (
+    ExecutorFailed,
+    RequestError,
+    RunFolderFailed,
+    RunInterrupted,
+    resume_command,
+)
+from cocobench_agents.engine.events import EventHandler
+from cocobench_agents.engine.execute import check_executor, execute
+from cocobench_agents.engine.records import request_from_record, run_record
+from cocobench_agents.engine.request import RunRequest
+from cocobench_agents.engine.resolve import ResolvedRun, canonical, resolve
+from cocobench_agents.engine.results import EvalResults, collect_results
+from cocobench_agents.engine.resume import (
+    check_credentials_given,
+    check_same_plan,
+    refused_changes,
+)
+from cocobench_agents.harness.limits import SpendLimit
+from cocobench_agents.harness.pending import pending_episodes
+from cocobench_agents.harness.store import RunFolder, RunFolderWriteError
+from cocobench_agents.harness.summary import latest
+from cocobench_agents.models import ModelPool
+
+
+def run(request: RunRequest, *, resume: bool = False, retry_errors: bool = False,
+        on_event: EventHandler | None = None) -> EvalResults:
+    """Run every episode of `request` into ``request.out`` and return the results of every
+    planned episode. With `resume`, complete the run recorded there (a shaping setting that
+    differs from the record is refused); with `retry_errors` too, run its infrastructure
+    failures again."""
+    emit = on_event or events.ignore
+    request = canonical(request)
+    folder = RunFolder(request.out)
+    with folder.lock() as lock:
+        if lock.stale_pid:
+            emit(events.Notice(f"{folder.path}: taking over the lock of pid {lock.stale_pid}, "
+                               "which ended without releasing it"))
+        record = folder.open_for_resume() if resume else None
+        for warning in folder.warnings:
+            emit(events.Notice(warning))
+        resolved = _checked(request, record, folder, emit)
+        todo = resolved.episodes if record is None else pending_episodes(
+            resolved.episodes, folder, retry_errors=retry_errors)
+        pool = ModelPool(request.model_settings)
+        if todo:  # a finished run is only summarised: no model stack to load, no key to need
+            _check_models(pool, resolved)
+        if record is None:
+            folder.create(run_record(resolved))
+        total = len(resolved.episodes)
+        emit(events.RunStarted(folder.path, total, total - len(todo)))
+        stopped = _execute(todo, folder, pool, request, emit, total) if todo else None
+    return collect_results(folder.path, stopped)
+
+
+async def run_async(request: RunRequest, **options: Any) -> EvalResults:
+    """`run` for code already inside an event loop (notebooks, servers): the run goes on a
+    thread, which runs its own event loop."""
+    return await asyncio.to_thread(run, request, **options)
+
+
+def _checked(request: RunRequest, record: dict[str, Any] | None, folder: RunFolder,
+             emit: EventHandler) -> ResolvedRun:
+    """The resolved request, after every check that needs nothing but the request and the
+    recorded run (each failure a `RequestError` or another user error: nothing written)."""
+    check_credentials_given(request)
+    if record is not None:
+        recorded = canonical(request_from_record(record, folder.path / "run.json"))
+        refused = refused_changes(recorded, request)
+        if refused:
+            raise RequestError("\n".join(refused))
+    check_executor(request.execution)
+    if request.execution.executor == "local":  # Ray workers check the node they run on
+        from benchmark_adapter.sim.backends import check_backend
+
+        check_backend(request.backend)
+    resolved = resolve(request, lambda message: emit(events.Notice(message)))
+    if record is not None:
+        from cocobench_agents.graphs.plugins import check_unchanged as planners_unchanged
+        from cocobench_agents.prompts import check_unchanged as suite_unchanged
+
+        planners_unchanged([c.planner for c in resolved.conditions],
+                           record.get("planners") or {})
+        check_same_plan(resolved, record)
+        _check_suites_unchanged(resolved, record, suite_unchanged)
+    return resolved
+
+
+def _check_suites_unchanged(resolved: ResolvedRun, record: dict[str, Any],
+                            unchanged: Callable[..., None]) -> None:
+    """Refuse a resumed run's prompt suite whose files changed since it was recorded."""
+    if not resolved.options.arms:
+        unchanged(resolved.suites[0], record.get("prompt_suite") or {})
+        return
+    recorded = {r.get("arm"): r for r in record.get("prompt_suites") or []
+                if isinstance(r, dict)}
+    for suite in resolved.suites:  # the arms themselves are checked with the plan
+        unchanged(suite, recorded.get(suite.label) or {})
+
+
+def _check_models(pool: ModelPool, resolved: ResolvedRun) -> None:
+    """Unknown models, missing API keys, user planners (one demo episode each) and, unless
+    the request says not to, one pre-flight call per remote model and input kind."""
+    from cocobench_agents.harness.planner_check import check_planners
+
+    request = resolved.request
+    models = [*resolved.models, *request.agent_models.values()]
+    for model in models:
+        if model != "oracle":
+            pool.validate(model)
+    check_planners(c.planner for c in resolved.conditions)
+    if request.preflight:
+        from cocobench_agents.models.preflight import preflight
+
+        preflight(pool, models, resolved.remote_model_modes)
+
+
+def _execute(todo: list, folder: RunFolder, pool: ModelPool, request: RunRequest,
+             emit: EventHandler, total: int) -> str | None:
+    """Run the pending episodes; why the run stopped starting episodes (a spend limit), or
+    None. Interruptions and failures of the folder or executor raise `RunStopped`."""
+    limits = request.limits
+    limit = SpendLimit(limits.max_cost, limits.max_total_tokens,
+                       spent=latest(folder.results()))
+    recorded = 0
+
+    def on_result(record: dict[str, Any]) -> None:
+        nonlocal recorded
+        recorded += 1
+        limit.add(record)
+        emit(events.EpisodeRecorded(record))
+
+    def on_start(key: dict[str, Any]) -> None:
+        emit(events.EpisodeStarted(key))
+
+    def on_step(key: dict[str, Any], step: dict[str, Any]) -> None:
+        emit(events.StepLanded(key, step))
+
+    try:
+        execute(todo, folder, pool, request, on_result=on_result,
+                limit=limit if limit.active else None,
+                notify=lambda message: emit(events.Notice(message, warning=False)),
+                on_start=on_start, on_step=on_step)
+    except RunFolderWriteError as exc:
+        raise RunFolderFailed(folder.path, exc) from None
+    except KeyboardInterrupt:
+        raise RunInterrupted(folder.path, total - len(todo) + recorded, total) from None
+    except _executor_failures() as exc:
+        raise ExecutorFailed(str(exc), folder.path) from None
+    left = len(todo) - recorded
+    if left and limit.reached():
+        flag = "--max-cost USD" if limits.max_cost is not None else "--max-total-tokens N"
+        message = (f"spend limit reached ({limit.describe()}): {left} episodes not started; "
+                   "raise the limit and finish the run with: "
+                   f"{resume_command(folder.path, flag)}")
+        emit(events.LimitReached(limit.describe(), left))
+        return message
+    return None
+
+
+def _executor_failures() -> tuple[type[BaseException], ...]:
+    """The executors' own failures (a worker process died, a local Ray could not start)."""
+    from cocobench_agents.harness.workers import WorkerError
+
+    failures: list[type[BaseException]] = [WorkerError]
+    try:
+        from cocobench_agents.harness.ray_local import LocalRayError
+
+        failures.append(LocalRayError)
+    except ImportError:  # pragma: no cover - the module imports no Ray itself
+        pass
+    return tuple(failures)

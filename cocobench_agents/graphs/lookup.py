@@ -1,0 +1,57 @@
+"""Any planner by reference: a built-in (`registry.PLANNERS`), a planner an installed package
+registers, or code (`FILE.py:NAME`, `package.module:NAME`, `plugins.py`); and its compiled
+graph.
+
+It sits above both `registry` and `plugins`, so that neither imports the other's lookups.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from cocobench_agents.graphs.plugins import find_user_planner, load_planner
+from cocobench_agents.graphs.registry import PLANNERS, PlannerError, PlannerSpec
+
+# Compiled once per process, by canonical name. A user planner loaded afresh
+# (`plugins.forget_user_planners`) is a new spec, so it compiles again.
+_COMPILED: dict[str, tuple[PlannerSpec, Any]] = {}
+
+
+def planner_spec(name: str) -> PlannerSpec:
+    """The planner `name`: a built-in (`centralized`, …), a planner an installed package
+    registers (entry point group `cocobench.planners`), or code: `FILE.py:NAME` or
+    `package.module:NAME`. User code is loaded once per process, so worker processes resolve
+    the same string; the spec's `name` is the canonical reference (a file's absolute path)."""
+    spec = PLANNERS.get(name)
+    if spec is not None:
+        return spec
+    return load_planner(name).spec
+
+
+def find_planner(text: str) -> str | None:
+    """The canonical name of the planner that `text` names or whose condition code it is
+    (`C0`, `LW`, an installed plugin's code), or None; raises `PlannerError` for code that
+    fails to load."""
+    by_code = {spec.code: name for name, spec in PLANNERS.items()}
+    if text in by_code or text in PLANNERS:
+        return by_code.get(text, text)
+    return find_user_planner(text)
+
+
+def compiled_graph(name: str):
+    """The compiled graph of a planner (compiled once per process; no checkpointer)."""
+    spec = planner_spec(name)
+    cached = _COMPILED.get(spec.name)
+    if cached is None or cached[0] is not spec:
+        cached = _COMPILED[spec.name] = (spec, _compile(spec))
+    return cached[1]
+
+
+def _compile(spec: PlannerSpec):
+    from langgraph.graph import StateGraph
+
+    graph = spec.build()
+    if not isinstance(graph, StateGraph):
+        raise PlannerError(f"planner {spec.name}: its build function returned a "
+                           f"{type(graph).__name__}, not a langgraph StateGraph")
+    return graph.compile()

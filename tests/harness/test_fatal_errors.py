@@ -1,0 +1,125 @@
+"""A fatal provider error (the key refused, no such model) stops a run from starting episodes,
+in this process and in worker processes: the episodes in flight finish and are recorded as
+today, then `FatalModelError` names the model and the error. Transient errors (429, 5xx) keep
+their retries and never stop a run."""
+
+from __future__ import annotations
+
+import asyncio
+import pickle
+
+import pytest
+
+from benchmark_adapter.tasks import load_tasks
+from cocobench_agents.harness import (
+    Condition,
+    RunFolder,
+    RunOptions,
+    execute_and_close,
+    execute_in_workers,
+    plan_episodes,
+)
+from cocobench_agents.harness.errors import (
+    FatalModelError,
+    WorkerEnvironmentError,
+    WorkersLost,
+    fatal_model_error,
+)
+from cocobench_agents.models import ModelPool, ModelSettings
+from tests.models.fake_openai import RATE_LIMITED, SERVER_ERROR, FakeOpenAI, error, ok
+
+MODEL = "openai/fake"
+EPISODES = 12
+JOBS = 2
+UNAUTHORIZED = error(401, "Incorrect API key provided", code="invalid_api_key",
+                     err_type="invalid_request_error")
+NO_SUCH_MODEL = error(404, "The model `fake` does not exist", code="model_not_found",
+                      err_type="invalid_request_error")
+
+
+@pytest.fixture(scope="module")
+def server():
+    with FakeOpenAI() as fake:
+        yield fake
+
+
+def plan():
+    return plan_episodes(load_tasks("cocobench-240")[:EPISODES], [MODEL],
+                         [Condition("centralized", "blind")], 1, RunOptions(max_steps=3))
+
+
+def settings(server: FakeOpenAI) -> ModelSettings:
+    return ModelSettings(api_base=server.base_url, transport="http", timeout_s=10,
+                         max_retries=1, backoff_s=0.01, backoff_max_s=0.01)
+
+
+def new_folder(path) -> RunFolder:
+    folder = RunFolder(path)
+    folder.create({"name": path.name})
+    return folder
+
+
+def run_locally(folder: RunFolder, server: FakeOpenAI) -> None:
+    asyncio.run(execute_and_close(plan(), folder, ModelPool(settings(server)), jobs=JOBS))
+
+
+def run_in_workers(folder: RunFolder, server: FakeOpenAI) -> None:
+    execute_in_workers(plan(), folder, settings(server), jobs=JOBS, workers=2)
+
+
+@pytest.mark.parametrize("execute", [run_locally, run_in_workers], ids=["asyncio", "workers"])
+@pytest.mark.parametrize(("answer", "kind"), [(UNAUTHORIZED, "auth"),
+                                              (NO_SUCH_MODEL, "not_found")])
+def test_a_fatal_model_error_stops_the_run_after_the_episodes_in_flight(
+        server, tmp_path, execute, answer, kind):
+    server.program(default=answer)
+    folder = new_folder(tmp_path / "run")
+    with pytest.raises(FatalModelError) as stopped:
+        execute(folder, server)
+    error = stopped.value
+    assert (error.model, error.kind) == (MODEL, kind)
+    assert str(error).startswith(f"{MODEL}: the provider ")
+    assert str(answer.status) in error.detail and "stopped starting episodes" in str(error)
+    records = list(folder.results())
+    # Only the episodes in flight when the first fatal error came back (every call fails):
+    # an episode's own fatal error stops its worker before it starts another.
+    assert 1 <= len(records) <= JOBS
+    assert all(r["backend_errors"] > 0 and not r.get("infra_error") for r in records)
+    assert server.count == sum(r["usage"]["model_calls"] for r in records)
+
+
+@pytest.mark.parametrize("answer", [RATE_LIMITED, SERVER_ERROR], ids=["429", "500"])
+def test_transient_errors_are_retried_and_never_stop_the_run(server, tmp_path, answer):
+    server.program(answer, default=ok())  # the first call fails once, its retry succeeds
+    folder = new_folder(tmp_path / "retried")
+    run_locally(folder, server)
+    assert len(list(folder.results())) == EPISODES
+    server.program(default=answer)  # every call fails, retries exhausted: errors, not a stop
+    folder = new_folder(tmp_path / "failing")
+    run_locally(folder, server)
+    records = list(folder.results())
+    assert len(records) == EPISODES and all(r["backend_errors"] > 0 for r in records)
+
+
+def test_only_episodes_with_backend_errors_are_read():
+    decision = {"status": "backend_error", "error_kind": "auth", "model": MODEL,
+                "error": "auth: refused"}
+    document = {"trajectory": [{"policy_decision": decision}]}
+    assert fatal_model_error({"backend_errors": 0}, document) is None
+    assert fatal_model_error({"backend_errors": 1}, None) is None
+    found = fatal_model_error({"backend_errors": 1}, document)
+    assert found is not None and (found.model, found.kind) == (MODEL, "auth")
+    timeout = {**decision, "error_kind": "timeout"}
+    assert fatal_model_error({"backend_errors": 1},
+                             {"trajectory": [{"policy_decision": timeout}]}) is None
+
+
+@pytest.mark.parametrize("error", [
+    FatalModelError(MODEL, "auth", "auth: refused"),
+    WorkerEnvironmentError(["OPENAI_API_KEY"], "ab12", "host-1"),
+    WorkersLost(300.0, 7, "the nodes that ran them are gone"),
+])
+def test_the_stops_cross_process_boundaries_whole(error):
+    copy = pickle.loads(pickle.dumps(error))
+    assert type(copy) is type(error) and str(copy) == str(error)
+    assert vars(copy) == vars(error)
