@@ -43,8 +43,8 @@ from cocobench_agents.harness import (
     plan_episodes,
 )
 from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
-from cocobench_agents.harness.ray_local import _token
-from cocobench_agents.harness.ray_session import _reload_ray_config, ray_session
+from cocobench_agents.harness.ray_local import driver_token
+from cocobench_agents.harness.ray_session import ray_session, reload_ray_config
 from cocobench_agents.models import ModelPool, ModelSettings
 
 NODE_JOBS, NODE_EPISODES = 4, 16
@@ -75,11 +75,11 @@ def nodes(planned, settings: ModelSettings, repeats: int) -> None:
     joining until it runs an episode (medians, with the range)."""
     # The cluster's nodes inherit these: token authentication with this driver's token, and
     # addresses on loopback (read when Ray is first imported).
-    os.environ.update({"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": _token(),
+    os.environ.update({"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": driver_token(),
                        "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"})
     from ray.cluster_utils import Cluster
 
-    _reload_ray_config()
+    reload_ray_config()
     cluster = Cluster(initialize_head=True,
                       head_node_args={"num_cpus": 1, "include_dashboard": False})
     try:

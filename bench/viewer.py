@@ -16,7 +16,6 @@ import json
 import statistics
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -73,17 +72,14 @@ def main_bench() -> None:
         started = time.perf_counter()
         catalog.refresh()
         print(f"refresh after 100 appended lines: {1000 * (time.perf_counter() - started):.1f} ms")
-        server = ViewerServer(pages, 0)
-        threading.Thread(target=server.serve_forever, daemon=True).start()
         loads = []
-        with chromium_page() as page:
+        with ViewerServer(pages, 0) as server, chromium_page() as page:
             for _ in range(options.loads):
                 started = time.perf_counter()
                 page.goto(server.url, wait_until="load")
                 shown = page.locator("table.episodes tbody tr").count()
                 loads.append(time.perf_counter() - started)
                 total = page.locator("#episode-count").inner_text()
-        server.shutdown()
         print(f"runs page in headless chromium ({total} episodes, first {shown} rows drawn): "
               f"median "
               f"{statistics.median(loads):.2f} s (aim < 2 s) over {options.loads} loads")

@@ -3,9 +3,16 @@
 The planner graphs need a live `Episode` in their runtime context, which a LangGraph server
 cannot supply; this graph takes plain input (`{task, model, planner, obs_mode,
 model_settings}`, the last with a run request's fields and validation), builds the
-episode itself, runs the chosen planner inside its one node, streams one custom event per
+episode itself, runs the chosen planner inside its `play` node, streams one custom event per
 landed step (``stream_mode="custom"``) and returns the scored result. `langgraph dev` serves it
 (see `langgraph.json`), and `langgraph_sdk`'s ``runs.wait`` / ``runs.stream`` run it.
+
+Human seats (``model: "human"``, or ``agent_models: {"agent_1": "human"}``) pause the graph:
+`play` runs the episode with the answers given so far and stops it at the first decision
+without one; `ask` shows that decision in a LangGraph `interrupt` and keeps the answer it is
+resumed with (``Command(resume={"action_id": 3, "reason": …, "message": …})``, checked
+against the decision's menu); then `play` plays the episode again from its start, replaying
+every answer (the episode is deterministic for given answers), up to the next decision.
 
 It is a door onto the episode runner, as `cocobench run` is, so it sits above the runner (the
 planner graphs in `graphs/` sit below it).
@@ -20,12 +27,18 @@ from typing import Any, Literal
 
 from langgraph.config import get_stream_writer
 from langgraph.graph import END, START, StateGraph
+from langgraph.types import interrupt
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 from typing_extensions import NotRequired, TypedDict
 
 from benchmark_adapter.tasks import TaskConfig, load_task, load_tasks
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec, run_episode
+from cocobench_agents.graphs import planner_spec
+from cocobench_agents.harness.human_log import answer_of, answers_again
 from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.models.human import Answer, Decision, HumanTurn
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
+from cocobench_agents.tools import prompt_hash
 
 DEFAULT_SOURCE = "cocobench-240"
 
@@ -35,7 +48,9 @@ class EpisodeInput(TypedDict):
 
     task: str  # a task-config file, or an instance id of `suite`
     suite: NotRequired[str]  # where `task` ids are looked up (default cocobench-240)
-    model: NotRequired[str]  # a built-in (greedy, random[:SEED], …) or a LiteLLM model string
+    model: NotRequired[str]  # a built-in (greedy, random[:SEED], human, …) or a LiteLLM model
+    #: Another model for some agents of a decentralized team ({"agent_1": "human"}).
+    agent_models: NotRequired[dict[str, str]]
     planner: NotRequired[str]  # a registered planner (default centralized)
     obs_mode: NotRequired[Literal["image", "blind"]]
     budget: NotRequired[int]  # landed steps allowed (default: the instance's step budget)
@@ -54,7 +69,11 @@ class EpisodeOutput(TypedDict):
 
 
 class EpisodeState(EpisodeInput, EpisodeOutput, total=False):
-    """Input and output together."""
+    """Input and output together, and the human seats' play so far."""
+
+    answers: dict[str, dict[str, Any]]  # decision id → the person's answer, its prompt's hash
+    pending: dict[str, Any] | None  # the decision `ask` shows next (`Decision.as_dict`)
+    streamed: int  # the steps already streamed (a replay does not stream them again)
 
 
 def resolve_task(task: str, suite: str = DEFAULT_SOURCE) -> TaskConfig:
@@ -71,8 +90,11 @@ def resolve_task(task: str, suite: str = DEFAULT_SOURCE) -> TaskConfig:
 def episode_spec(state: EpisodeInput) -> EpisodeSpec:
     """The episode `state` asks for, with the documented defaults."""
     config = resolve_task(state["task"], state.get("suite") or DEFAULT_SOURCE)
-    return EpisodeSpec(config=config, planner=state.get("planner") or "centralized",
-                       models={DEFAULT_MODEL_KEY: state.get("model") or "greedy"},
+    planner = state.get("planner") or "centralized"
+    models = {DEFAULT_MODEL_KEY: state.get("model") or "greedy"}
+    if planner_spec(planner).decentralized:  # as a run: only their agents have models
+        models.update(state.get("agent_models") or {})
+    return EpisodeSpec(config=config, planner=planner, models=models,
                        obs_mode=state.get("obs_mode") or "image",
                        prompt_suite=state.get("prompt_suite") or DEFAULT_SUITE,
                        backend=state.get("backend") or "embedded",
@@ -88,31 +110,109 @@ def step_event(item: dict[str, Any]) -> dict[str, Any]:
             "goal_success": (item.get("eval") or {}).get("success")}
 
 
+async def begin(state: EpisodeState) -> dict[str, Any]:
+    """A new run (on a new thread, or again on one that played): no answers yet."""
+    return {"answers": {}, "pending": None, "streamed": 0}
+
+
 async def play(state: EpisodeState) -> dict[str, Any]:
-    """Build the episode, run its planner to the end, score it."""
+    """Build the episode, run its planner to the end, score it; or stop at the first
+    decision of a human seat that has no answer yet, to be asked."""
     loop = asyncio.get_running_loop()
     writer = get_stream_writer()
+    streamed = landed = state.get("streamed") or 0
 
     def on_step(item: dict[str, Any]) -> None:
-        loop.call_soon_threadsafe(writer, step_event(item))
+        nonlocal landed
+        landed = item.get("step_index") or 0
+        if landed > streamed:  # the steps before were streamed by the play that asked
+            loop.call_soon_threadsafe(writer, step_event(item))
 
+    desk = GivenAnswers(state.get("answers") or {})
     # The episode runs on a thread of its own: it reads files and spends CPU in the simulator,
     # and a LangGraph server forbids blocking calls on (and while) an event loop runs.
-    return await asyncio.to_thread(_play, dict(state), on_step)
+    try:
+        outcome = await asyncio.to_thread(_play, dict(state), on_step, desk)
+    except HumanTurn as turn:  # here, in the node: `ask` interrupts in its own context
+        return {"pending": turn.decision.as_dict(), "streamed": max(streamed, landed)}
+    return {**outcome, "pending": None}
 
 
-def _play(state: dict[str, Any], on_step: Callable[[dict[str, Any]], None]) -> dict[str, Any]:
+async def ask(state: EpisodeState) -> dict[str, Any]:
+    """Show the pending decision to the person (an interrupt) and keep their answer. A
+    resume value that is not an answer on the decision's menu is refused (a validation
+    error naming it and the menu), and the decision can be answered again."""
+    decision: dict[str, Any] = state["pending"]  # type: ignore[assignment] - set by `play`
+    schema = answer_schema([option["id"] for option in decision["menu"]])
+    answer = interrupt(decision, response_schema=schema)
+    given = {**answer.model_dump(), "prompt_hash": prompt_hash(decision["prompt"])}
+    return {"answers": {**(state.get("answers") or {}), decision["id"]: given},
+            "pending": None}
+
+
+async def after_play(state: EpisodeState) -> str:
+    return "ask" if state.get("pending") else END
+
+
+class GivenAnswers:
+    """A desk with the answers a person gave so far: the first decision asked without one
+    (or whose situation changed since: a remote teammate that answered otherwise this time)
+    stops the episode (`HumanTurn`) until it is asked."""
+
+    def __init__(self, answers: dict[str, dict[str, Any]]) -> None:
+        self.answers = answers
+        self.first_unanswered: Decision | None = None
+
+    async def ask(self, decision: Decision) -> Answer:
+        given = self.answers.get(decision.id)
+        if given is None or not answers_again(given, decision):
+            # Seats deciding in parallel may all stop; whichever stop ends the episode names
+            # the first asked, so the person answers in the order the planner asks.
+            self.first_unanswered = self.first_unanswered or decision
+            raise HumanTurn(self.first_unanswered)
+        return answer_of(given)
+
+
+def answer_schema(menu_ids: list[int]) -> type[BaseModel]:
+    """What `ask` takes as a resume value for a decision offering `menu_ids` (LangGraph
+    validates the value with it, and shows clients its JSON schema)."""
+
+    class HumanAnswer(BaseModel):
+        """A person's answer: a menu id (null: DONE), why (optional) and, in D1, a
+        message."""
+
+        model_config = ConfigDict(extra="forbid")
+
+        action_id: int | None = Field(  # None: DONE (every goal is satisfied)
+            json_schema_extra={"enum": [*menu_ids, None]})
+        reason: str = ""
+        message: str = ""
+        think_s: float = Field(0.0, ge=0)
+
+        @field_validator("action_id")
+        @classmethod
+        def _on_menu(cls, action_id: int | None) -> int | None:
+            if action_id is not None and action_id not in menu_ids:
+                raise ValueError(f"action {action_id} is not on the menu (ids: "
+                                 f"{', '.join(map(str, menu_ids))}; null: DONE)")
+            return action_id
+
+    return HumanAnswer
+
+
+def _play(state: dict[str, Any], on_step: Callable[[dict[str, Any]], None],
+          desk: GivenAnswers) -> dict[str, Any]:
     spec = episode_spec(state)  # type: ignore[arg-type]
     settings = ModelSettings.model_validate(state.get("model_settings") or {})
     load_prompt_suite(spec.prompt_suite)  # read now, before the episode's event loop starts
-    document, result = asyncio.run(_run(spec, settings, spec.controller(), on_step))
+    document, result = asyncio.run(_run(spec, ModelPool(settings, desk=desk),
+                                        spec.controller(), on_step))
     return {"result": {**result.model_dump(mode="json"), "model": spec.model_for(None)},
             "trajectory": trajectory_summary(document)}
 
 
-async def _run(spec: EpisodeSpec, settings: ModelSettings, controller: Any,
+async def _run(spec: EpisodeSpec, pool: ModelPool, controller: Any,
                on_step: Callable[[dict[str, Any]], None]) -> tuple[dict[str, Any], Any]:
-    pool = ModelPool(settings)
     try:
         return await run_episode(spec, pool, controller=controller, on_step=on_step)
     finally:
@@ -130,11 +230,15 @@ def trajectory_summary(document: dict[str, Any]) -> dict[str, Any]:
 
 
 def build_episode_graph() -> StateGraph:
-    """START → play → END, with the input and output schemas above."""
+    """START → begin → play → (ask → play | END), with the input and output schemas above."""
     graph = StateGraph(EpisodeState, input_schema=EpisodeInput, output_schema=EpisodeOutput)
+    graph.add_node("begin", begin)
     graph.add_node("play", play)
-    graph.add_edge(START, "play")
-    graph.add_edge("play", END)
+    graph.add_node("ask", ask)
+    graph.add_edge(START, "begin")
+    graph.add_edge("begin", "play")
+    graph.add_conditional_edges("play", after_play, ["ask", END])
+    graph.add_edge("ask", "play")
     return graph
 
 

@@ -15,6 +15,7 @@ from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.tasks.checks import MAX_STEP_BUDGET
 from cocobench_agents.graphs import PlannerContext, compiled_graph, planner_spec
+from cocobench_agents.models.human import HUMAN
 from cocobench_agents.models.protocol import ModelClient
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
@@ -79,17 +80,28 @@ class ClientFactory(Protocol):
     def release(self, episode: str) -> None: ...
 
 
-def make_clients(spec: EpisodeSpec, pool: ClientFactory) -> dict[str, ModelClient]:
-    """The team's client ("*") and, for decentralized planners, one client per agent."""
+def seat_models(spec: EpisodeSpec) -> dict[str, str]:
+    """The model of each client the episode makes: the team's ("*") and, for decentralized
+    planners, each agent's; none for a planner that uses no model."""
     planner = planner_spec(spec.planner)
     if not planner.uses_models:
         return {}
-    task = spec.episode
-    clients = {DEFAULT_MODEL_KEY: pool.client(spec.model_for(None), episode=task, agent=None)}
+    seats = {DEFAULT_MODEL_KEY: spec.model_for(None)}
     if planner.decentralized:
-        for agent in spec.config.agent_ids:
-            clients[agent] = pool.client(spec.model_for(agent), episode=task, agent=agent)
-    return clients
+        seats.update({agent: spec.model_for(agent) for agent in spec.config.agent_ids})
+    return seats
+
+
+def has_human_seat(spec: EpisodeSpec) -> bool:
+    """Whether a person decides for some seat of the episode."""
+    return HUMAN in seat_models(spec).values()
+
+
+def make_clients(spec: EpisodeSpec, pool: ClientFactory) -> dict[str, ModelClient]:
+    """The team's client ("*") and, for decentralized planners, one client per agent."""
+    return {seat: pool.client(model, episode=spec.episode,
+                              agent=None if seat == DEFAULT_MODEL_KEY else seat)
+            for seat, model in seat_models(spec).items()}
 
 
 async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,

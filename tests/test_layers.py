@@ -41,6 +41,7 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
     ),
     "cocobench_agents": (
         ("__init__", "cli"),  # the Python API's name list, the command: nothing imports them
+        ("play",),  # the play page of human seats, served on the viewer's local server
         ("api", "viewer", "episode_graph"),  # the other doors: none opens onto another
         ("engine",),  # RunRequest → plan → run; imports no door
         ("harness",),

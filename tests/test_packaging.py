@@ -52,6 +52,9 @@ def test_the_wheel_holds_both_packages_and_their_data(tmp_path):
                for n in names)
     assert any(n.startswith("cocobench_agents/prompts/templates/cocobench-v1/")
                for n in names)
+    for page_file in ("viewer/templates/base.html", "viewer/static/viewer.js",
+                      "play/templates/play.html", "play/static/play.js", "play/static/play.css"):
+        assert f"cocobench_agents/{page_file}" in names
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     assert "cocobench = cocobench_agents.cli:main" in zipfile.ZipFile(wheel).read(
         entry_points).decode()

@@ -86,6 +86,8 @@ _OPTIONS = [
     request_option("--ray-address", name="ray_address", metavar="HOST:PORT"),
     request_option("--thor-gpus-per-worker", name="thor_gpus_per_worker",
                    type=click.FloatRange(min=0)),
+    request_option("--ray-wait", name="ray_wait", type=click.FloatRange(min=0, min_open=True),
+                   metavar="S"),
     request_option("--max-steps", name="max_steps", type=click.IntRange(min=1)),
     request_option("--stable-ids", name="stable_ids", is_flag=True),
     request_option("--api-base", name="api_base", metavar="URL"),

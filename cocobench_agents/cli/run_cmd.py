@@ -14,6 +14,7 @@ from typing import Any
 import click
 from click.core import ParameterSource
 
+from cocobench_agents.cli.play_page import play_page
 from cocobench_agents.cli.progress import RunView
 from cocobench_agents.cli.request_options import ENV_PREFIX, request_options
 from cocobench_agents.cli.tables import table
@@ -51,8 +52,13 @@ LEGEND = (
                    "episodes, the most model calls, the first prompts' tokens and a cost "
                    "range, against --max-cost.")
 @click.option("--json", "as_json", is_flag=True, help="With --dry-run: one JSON object.")
+@click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
+              help="With human seats: the play page's port on 127.0.0.1 (0: any free one).")
+@click.option("--no-browser", is_flag=True,
+              help="With human seats: do not open the play page (its URL is printed).")
 def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
-                print_config: bool, dry_run: bool, as_json: bool, **options: Any) -> None:
+                print_config: bool, dry_run: bool, as_json: bool, port: int,
+                no_browser: bool, **options: Any) -> None:
     """Run planners on CoCoBench instances and record one trajectory and one result per
     episode. Every model × condition × instance × epoch is one episode."""
     request = _request(options, config_file, resume)
@@ -69,12 +75,15 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
     from cocobench_agents.engine.run import run
 
     view = RunView()
-    try:
-        results = run(request, resume=resume, retry_errors=retry_errors, on_event=view)
-    except RunStopped as stopped:
-        view.close()
-        _summary(stopped.folder)
-        raise RunEndedEarly(stopped) from None
+    with play_page(request, port, open_browser=not no_browser) as page:
+        try:
+            results = run(request, resume=resume, retry_errors=retry_errors,
+                          on_event=page.watching(view) if page else view,
+                          desk=page.desk if page else None)
+        except RunStopped as stopped:
+            view.close()
+            _summary(stopped.folder)
+            raise RunEndedEarly(stopped) from None
     view.close()
     _summary(results.folder)
     if results.stopped is not None:
@@ -153,10 +162,13 @@ class RunHadErrors(click.ClickException):
 
 def _summary(folder: Path) -> None:
     from cocobench_agents.harness.store import RunFolder
-    from cocobench_agents.harness.summary import summary_table
+    from cocobench_agents.harness.summary import node_lines, summary_table
 
     run_folder = RunFolder(folder)
-    headers, rows = summary_table(run_folder.results())
+    records = list(run_folder.results())
+    headers, rows = summary_table(records)
     click.echo(table(headers, rows, caption=LEGEND))
+    for line in node_lines(records):  # a Ray run: where its episodes ran
+        click.echo(line)
     click.echo(f"results: {run_folder.results_path}  (cocobench report "
                f"{run_folder.path} --out DIR for the paper's tables)")

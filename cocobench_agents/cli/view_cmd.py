@@ -43,18 +43,18 @@ def view_command(runs: tuple[Path, ...], port: int, no_browser: bool,
 
 
 def _serve(pages: Pages, port: int, *, open_browser: bool) -> None:
+    import threading
+
     from cocobench_agents.viewer.server import ViewerServer
 
-    server = ViewerServer(pages, port)
-    click.echo(f"cocobench view: serving {len(pages.catalog.runs)} run(s) at {server.url} "
-               "(Ctrl-C to stop)")
-    if open_browser:
-        import webbrowser
+    with ViewerServer(pages, port) as server:
+        click.echo(f"cocobench view: serving {len(pages.catalog.runs)} run(s) at {server.url} "
+                   "(Ctrl-C to stop)")
+        if open_browser:
+            import webbrowser
 
-        webbrowser.open(server.url)
-    try:
-        server.serve_forever()
-    except KeyboardInterrupt:
-        click.echo("stopped")
-    finally:
-        server.server_close()
+            webbrowser.open(server.url)
+        try:
+            threading.Event().wait()  # the server has its own thread; wait for Ctrl-C
+        except KeyboardInterrupt:
+            click.echo("stopped")

@@ -24,6 +24,7 @@ USER_ERRORS = {
     "cocobench_agents.harness.run_lock": "RunLocked",
     "cocobench_agents.harness.plan": "PlanError",
     "cocobench_agents.harness.ray_session": "RayUnavailable",
+    "cocobench_agents.harness.errors": "WorkerEnvironmentError",
     "cocobench_agents.prompts.suite": "PromptSuiteError",
     "cocobench_agents.graphs.registry": "PlannerError",
     "cocobench_agents.engine.errors": "RequestError",
@@ -70,3 +71,12 @@ class RunFolderFailed(RunStopped):
 
 class ExecutorFailed(RunStopped):
     """The executor itself failed (a worker process died, a Ray cluster went away)."""
+
+
+class ModelRefused(RunStopped):
+    """The provider refused the key, or knows no such model: every later call would fail the
+    same way, so the run stopped starting episodes (those in flight finished)."""
+
+    def __init__(self, folder: Path, error: Exception) -> None:
+        super().__init__(f"{error}. Fix the key or the model name, then re-run the failed "
+                         f"episodes with: {resume_command(folder, '--retry-errors')}", folder)

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 from pydantic import ValidationError
 
 from cocobench_agents.engine.errors import RequestError
-from cocobench_agents.engine.request import RunRequest, iter_fields, value_at
+from cocobench_agents.engine.request import RunRequest, iter_fields, nest, value_at
 from cocobench_agents.harness.store import RunFolderError
 from cocobench_agents.models.secrets import REDACTED, redact_named, redact_obj, redact_url
 from cocobench_agents.setting_kinds import flag_of
@@ -119,15 +119,7 @@ def request_from_record(record: Mapping[str, Any], where: Path) -> RunRequest:
 
 #: Options of the earlier command line whose request field has another name.
 _RENAMED = {"planner": "planners", "obs_mode": "obs_modes", "prompt_suite": "prompt_suites",
-            "task_id": "task_ids", "timeout": "timeout_s", "extra_json": "extra_params",
-            "cache_dir": "cache_dir"}
-_GROUPS = {"selection": ("eval_set", "only_cell", "only_family", "only_dim", "task_ids",
-                         "limit", "missing"),
-           "execution": ("executor", "jobs", "workers", "ray_address", "thor_gpus_per_worker"),
-           "limits": ("max_cost", "max_total_tokens", "episode_timeout"),
-           "model_settings": ("api_base", "api_key_env", "timeout_s", "max_retries",
-                              "max_concurrency", "temperature", "max_tokens", "extra_params",
-                              "grammar", "cache_dir", "seed", "transport")}
+            "task_id": "task_ids", "timeout": "timeout_s", "extra_json": "extra_params"}
 
 
 def upgrade(record: Mapping[str, Any]) -> dict[str, Any]:
@@ -138,50 +130,34 @@ def upgrade(record: Mapping[str, Any]) -> dict[str, Any]:
       timeout_s``, ``--task``/``--suite`` → ``selection.sources``, …);
     * older, without: ``request`` (the plan's sources, models, conditions, task ids, epochs,
       prompt suite, backend, step budget and ids) and ``model_settings``.
+
+    Options no field has (``no_preflight``, …) are dropped, and so is an unset option (null)
+    whose field has a default of another kind: the field keeps its default.
     """
     options = record.get("cli_options")
     if isinstance(options, Mapping):
         flat = {_RENAMED.get(k, k): v for k, v in options.items()}
         flat["sources"] = _listed(flat.pop("tasks", None)) or _listed(flat.pop("suite", None))
-        flat.pop("suite", None)
-        if flat.get("temperature") is None:
-            flat.pop("temperature", None)  # the old default: the reference's rule ("auto")
     else:
-        old = record.get("request") if isinstance(record.get("request"), Mapping) else {}
-        settings = record.get("model_settings") if isinstance(
-            record.get("model_settings"), Mapping) else {}
-        flat = {**settings, "sources": _listed(old.get("tasks")) or _listed(old.get("suite")),
+        old = _mapping(record.get("request"))
+        flat = {**_mapping(record.get("model_settings")),
+                "sources": _listed(old.get("tasks")) or _listed(old.get("suite")),
                 "models": old.get("models"), "agent_models": old.get("agent_models"),
                 "conditions": old.get("conditions"), "epochs": old.get("epochs"),
                 "task_ids": old.get("task_id"), "prompt_suites": old.get("prompt_suite"),
                 "backend": old.get("backend"), "max_steps": old.get("max_steps"),
                 "stable_ids": old.get("stable_ids")}
     flat["out"] = flat.get("out") or "."
-    return _nest({k: v for k, v in flat.items() if v is not None or k in _NULLABLE})
+    if not flat["sources"]:
+        flat.pop("sources")
+    defaults = {path[-1]: info.get_default(call_default_factory=True)
+                for path, info in iter_fields()}
+    return nest({name: value for name, value in flat.items() if name in defaults
+                 and (value is not None or defaults[name] is None)})
 
 
-_NULLABLE = frozenset({"max_steps", "conditions", "max_tokens", "seed", "api_base",
-                       "api_key_env", "max_cost", "max_total_tokens", "ray_address"})
-
-
-def _nest(flat: dict[str, Any]) -> dict[str, Any]:
-    """Flat field names into the request's groups; names no field has are dropped (options
-    of other versions: no_preflight, resume, …)."""
-    group_of = {name: group for group, names in _GROUPS.items() for name in names}
-    group_of["sources"] = "selection"
-    top = set(RunRequest.model_fields)
-    nested: dict[str, Any] = {}
-    for name, value in flat.items():
-        if name in group_of:
-            nested.setdefault(group_of[name], {})[name] = value
-        elif name in top:
-            nested[name] = value
-    known = {group: set(RunRequest.model_fields[group].annotation.model_fields)  # type: ignore[union-attr]
-             for group in _GROUPS}
-    for group, values in list(nested.items()):
-        if group in known:
-            nested[group] = {k: v for k, v in values.items() if k in known[group]}
-    return nested
+def _mapping(value: Any) -> Mapping[str, Any]:
+    return value if isinstance(value, Mapping) else {}
 
 
 def _listed(value: Any) -> list[str]:

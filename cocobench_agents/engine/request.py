@@ -18,11 +18,13 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, field_validator, model_validator
 from pydantic.fields import FieldInfo
 
+from cocobench_agents.models.human import HUMAN
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.prompts.suite import DEFAULT_SUITE
 from cocobench_agents.setting_kinds import Kind, kind_of, run_setting, shaping
 
 DEFAULT_SOURCE = "cocobench-240"
+MODEL_EPISODE_TIMEOUT_S = 7200.0  # `limits.episode_timeout` of an episode without a person
 BACKENDS = ("embedded", "ai2thor")
 
 
@@ -62,8 +64,10 @@ class TaskSelection(Settings):
         description="Tasks an index or subset file lists but whose configs are absent: skip "
                     "them with a warning (as the reference's eval-set selection) or stop.")
 
-    _lists = field_validator("sources", "eval_set", "task_ids", mode="before")(
-        classmethod(lambda cls, v: _one_or_more(v)))
+    @field_validator("sources", "eval_set", "task_ids", mode="before")
+    @classmethod
+    def _lists(cls, value: Any) -> Any:
+        return _one_or_more(value)
 
 
 class ExecutionSettings(Settings):
@@ -87,11 +91,15 @@ class ExecutionSettings(Settings):
         0.25, flag="--thor-gpus-per-worker", ge=0,
         description="With executor ray and backend ai2thor: the GPU share of each worker "
                     "(one Unity each); 0 for CPU nodes.")
+    ray_wait: float = run_setting(
+        300.0, flag="--ray-wait", gt=0,
+        description="With executor ray: seconds the run goes on with no worker alive (every "
+                    "node lost, none with room) before it stops; --resume finishes it.")
 
     @model_validator(mode="after")
     def _address_needs_ray(self) -> ExecutionSettings:
         if self.ray_address and self.executor != "ray":
-            raise ValueError("ray_address (--ray-address) needs executor ray")
+            raise ValueError("ray_address (--ray-address) needs executor ray (--executor ray)")
         return self
 
 
@@ -106,10 +114,18 @@ class Limits(Settings):
         None, flag="--max-total-tokens", ge=0,
         description="Stop starting episodes once the run's model calls used this many tokens "
                     "(prompt + completion).")
-    episode_timeout: float = run_setting(
-        7200.0, flag="--episode-timeout", ge=0,
+    episode_timeout: float | None = run_setting(
+        None, flag="--episode-timeout", ge=0,
         description="Wall-clock seconds an episode may run before it ends as an "
-                    "infrastructure error (0: no limit).")
+                    "infrastructure error (0: no limit; default: 7200 for episodes of "
+                    "models, no limit for episodes with a human seat).")
+
+    def episode_timeout_s(self, human: bool) -> float | None:
+        """The wall-clock limit of an episode (None: none); `human`: it has a human seat,
+        whose think time has no default limit."""
+        if self.episode_timeout is None:
+            return None if human else MODEL_EPISODE_TIMEOUT_S
+        return self.episode_timeout or None
 
 
 class RunRequest(Settings):
@@ -127,11 +143,12 @@ class RunRequest(Settings):
     models: list[str] = shaping(
         default_factory=list, flag="--model",
         description="LiteLLM model strings or built-ins (greedy, random[:SEED], "
-                    "scripted:PATH, replay:PATH).")
+                    "scripted:PATH, replay:PATH), or human: a person plays every seat.")
     agent_models: dict[str, str] = shaping(
         default_factory=dict, flag="--agent-model",
         description="A different model for one agent of a decentralized team "
-                    "(AGENT=MODEL, or a mapping in a config file).")
+                    "(AGENT=MODEL, or a mapping in a config file; agent_1=human: a person "
+                    "plays that agent).")
     planners: list[str] = shaping(
         default_factory=lambda: ["centralized"], flag="--planner", min_length=1,
         description="centralized, decentralized, decentralized-broadcast, leader-worker, "
@@ -177,8 +194,10 @@ class RunRequest(Settings):
         description="One call per remote model and input kind before any episode starts "
                     "(it stops the run when the provider refuses).")
 
-    _lists = field_validator("models", "planners", "obs_modes", "prompt_suites",
-                             mode="before")(classmethod(lambda cls, v: _one_or_more(v)))
+    @field_validator("models", "planners", "obs_modes", "prompt_suites", mode="before")
+    @classmethod
+    def _lists(cls, value: Any) -> Any:
+        return _one_or_more(value)
 
     @field_validator("conditions", mode="before")
     @classmethod
@@ -203,6 +222,12 @@ class RunRequest(Settings):
                 raise ValueError(f"{pair!r}: expected AGENT=MODEL, e.g. agent_2=gpt-4o")
             pairs[agent.strip()] = model.strip()
         return pairs
+
+    @property
+    def has_human_seats(self) -> bool:
+        """Whether a person plays some seat (``human`` among the models or agent models):
+        such a run needs a `SeatDesk` and runs its episodes one after another here."""
+        return HUMAN in self.models or HUMAN in self.agent_models.values()
 
 
 def iter_fields(model: type[BaseModel] = RunRequest, prefix: tuple[str, ...] = ()

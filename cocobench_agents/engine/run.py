@@ -16,6 +16,7 @@ from typing import Any
 from cocobench_agents.engine import events
 from cocobench_agents.engine.errors import (
     ExecutorFailed,
+    ModelRefused,
     RequestError,
     RunFolderFailed,
     RunInterrupted,
@@ -32,19 +33,33 @@ from cocobench_agents.engine.resume import (
     check_same_plan,
     refused_changes,
 )
+from cocobench_agents.episode_runner import has_human_seat
+from cocobench_agents.harness.errors import FatalModelError, WorkerError, WorkersLost
+from cocobench_agents.harness.human_log import LoggedDesk
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.pending import pending_episodes
+from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.store import RunFolder, RunFolderWriteError
 from cocobench_agents.harness.summary import latest
 from cocobench_agents.models import ModelPool
+from cocobench_agents.models.human import SeatDesk
+
+_NO_DESK = ("human seats need a player: run it with `cocobench run` (it serves a play page), "
+            "or pass desk=… to run()")
+_HUMAN_ON_RAY = ("human seats need the local executor (--executor local): the person answers "
+                 "through this process, which Ray workers cannot reach")
 
 
 def run(request: RunRequest, *, resume: bool = False, retry_errors: bool = False,
-        on_event: EventHandler | None = None) -> EvalResults:
+        on_event: EventHandler | None = None, desk: SeatDesk | None = None) -> EvalResults:
     """Run every episode of `request` into ``request.out`` and return the results of every
     planned episode. With `resume`, complete the run recorded there (a shaping setting that
     differs from the record is refused); with `retry_errors` too, run its infrastructure
-    failures again."""
+    failures again.
+
+    Human seats (the model ``human``) are asked on `desk`, one decision at a time, awaited
+    on the run's own event loop; their answers are logged in the run folder
+    (`harness.human_log`), so a resumed run asks none of them again."""
     emit = on_event or events.ignore
     request = canonical(request)
     folder = RunFolder(request.out)
@@ -58,7 +73,7 @@ def run(request: RunRequest, *, resume: bool = False, retry_errors: bool = False
         resolved = _checked(request, record, folder, emit)
         todo = resolved.episodes if record is None else pending_episodes(
             resolved.episodes, folder, retry_errors=retry_errors)
-        pool = ModelPool(request.model_settings)
+        pool = ModelPool(request.model_settings, desk=_logged_desk(desk, request, todo, folder))
         if todo:  # a finished run is only summarised: no model stack to load, no key to need
             _check_models(pool, resolved)
         if record is None:
@@ -85,6 +100,8 @@ def _checked(request: RunRequest, record: dict[str, Any] | None, folder: RunFold
         refused = refused_changes(recorded, request)
         if refused:
             raise RequestError("\n".join(refused))
+    if request.has_human_seats and request.execution.executor == "ray":
+        raise RequestError(_HUMAN_ON_RAY)
     check_executor(request.execution)
     if request.execution.executor == "local":  # Ray workers check the node they run on
         from benchmark_adapter.sim.backends import check_backend
@@ -112,6 +129,17 @@ def _check_suites_unchanged(resolved: ResolvedRun, record: dict[str, Any],
                 if isinstance(r, dict)}
     for suite in resolved.suites:  # the arms themselves are checked with the plan
         unchanged(suite, recorded.get(suite.label) or {})
+
+
+def _logged_desk(desk: SeatDesk | None, request: RunRequest, todo: list[PlannedEpisode],
+                 folder: RunFolder) -> LoggedDesk | None:
+    """`desk` behind the run's answer logs, when an episode to run has a human seat (a
+    `RequestError` without a desk); None when none has."""
+    if not request.has_human_seats or not any(has_human_seat(p.spec) for p in todo):
+        return None
+    if desk is None:
+        raise RequestError(_NO_DESK)
+    return LoggedDesk(desk, folder)
 
 
 def _check_models(pool: ModelPool, resolved: ResolvedRun) -> None:
@@ -161,7 +189,11 @@ def _execute(todo: list, folder: RunFolder, pool: ModelPool, request: RunRequest
         raise RunFolderFailed(folder.path, exc) from None
     except KeyboardInterrupt:
         raise RunInterrupted(folder.path, total - len(todo) + recorded, total) from None
-    except _executor_failures() as exc:
+    except FatalModelError as exc:
+        raise ModelRefused(folder.path, exc) from None
+    except WorkersLost as exc:
+        raise ExecutorFailed(f"{exc}: {resume_command(folder.path)}", folder.path) from None
+    except WorkerError as exc:
         raise ExecutorFailed(str(exc), folder.path) from None
     left = len(todo) - recorded
     if left and limit.reached():
@@ -172,17 +204,3 @@ def _execute(todo: list, folder: RunFolder, pool: ModelPool, request: RunRequest
         emit(events.LimitReached(limit.describe(), left))
         return message
     return None
-
-
-def _executor_failures() -> tuple[type[BaseException], ...]:
-    """The executors' own failures (a worker process died, a local Ray could not start)."""
-    from cocobench_agents.harness.workers import WorkerError
-
-    failures: list[type[BaseException]] = [WorkerError]
-    try:
-        from cocobench_agents.harness.ray_local import LocalRayError
-
-        failures.append(LocalRayError)
-    except ImportError:  # pragma: no cover - the module imports no Ray itself
-        pass
-    return tuple(failures)

@@ -1,7 +1,8 @@
 """One model decision: prompt → model → parsed reply → decision record.
 
 Never raises: a failing model becomes a `backend_error` decision, so one agent's trouble
-cannot fail a decentralized round (LangGraph fails a whole step when one branch raises).
+cannot fail a decentralized round (LangGraph fails a whole step when one branch raises). The
+one exception that passes is `HumanTurn`: a human seat's desk pausing the episode.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from cocobench_agents.graphs.context import PlannerContext
+from cocobench_agents.models.human import HumanTurn
 from cocobench_agents.models.protocol import ModelError, ModelRequest
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import parse_message, parse_reply
@@ -35,10 +37,13 @@ async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
         return stop_decision(policy=policy, model=client.name, agent=agent,
                              step_index=tools.step_index, status="no_actions")
     request = ModelRequest(prompt=prompt, images=images, menu=tools.menu_options(agent),
-                           agent=agent, sample_index=ctx.sample_index)
+                           agent=agent, sample_index=ctx.sample_index,
+                           step_index=tools.step_index)
     started = time.perf_counter()
     try:
         reply = await (retry or ctx.retry_policy).complete(client, request)
+    except HumanTurn:  # not a failure: the episode stops here until a person answers
+        raise
     except Exception as exc:  # noqa: BLE001 - any client failure idles this agent only
         error = exc if isinstance(exc, ModelError) else ModelError(
             "other", repr(exc), latency_s=time.perf_counter() - started)

@@ -1,17 +1,15 @@
-"""Why a run stops before its plan is done, as typed exceptions for the command line to map
-to exit codes (and what each executor raises when).
+"""Why a run stops before its plan is done: typed exceptions, for the command line to map to
+exit codes.
 
-Each one is raised after what finished is recorded: `--resume` (with `--retry-errors` after
-a fatal model error) completes the run. They pickle by their arguments, so a worker process
-can send one to its parent.
+Each is raised once what finished is recorded, so `--resume` (with `--retry-errors` after a
+fatal model error) completes the run; each pickles by its arguments, so a worker process can
+send one to its parent.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from typing import Any
-
-from benchmark_adapter.metrics.failures import policy_decisions
 
 #: The `ModelError` kinds no retry and no later episode can get past, and what they mean.
 FATAL_KINDS = {
@@ -74,9 +72,12 @@ def fatal_model_error(record: Mapping[str, Any], document: Mapping[str, Any] | N
                       ) -> FatalModelError | None:
     """The first fatal model failure of an episode (its result line and trajectory), if
     any. Only episodes with backend errors are read: costs nothing otherwise."""
-    if document is None or not record.get("backend_errors"):
+    usage = record.get("usage") or {}
+    if document is None or not (record.get("backend_errors") or usage.get("backend_errors")):
         return None
-    for decision in policy_decisions(document):
+    # Every decision, an idle agent's too (one of a heterogeneous team whose model refused
+    # the key idles while the others act: its decision is on no step).
+    for decision in document.get("planner_decisions") or []:
         kind = decision.get("error_kind")
         if decision.get("status") == "backend_error" and kind in FATAL_KINDS:
             return FatalModelError(str(decision.get("model")), kind, str(decision.get("error")))

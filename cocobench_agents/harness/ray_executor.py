@@ -80,6 +80,10 @@ class RayOptions:
     runtime_env: dict[str, Any] | None = None
     wait_s: float = 300.0
 
+    def __post_init__(self) -> None:
+        if self.wait_s <= 0:
+            raise ValueError(f"wait_s must be > 0, got {self.wait_s}")
+
 
 @dataclass(frozen=True)
 class FleetShape:
@@ -287,9 +291,10 @@ class _Run:
         self.ever_alive = True
 
     def _grow(self, queued: int) -> None:
-        """Start workers for queued episodes where Ray has room (a node joined, a dead
-        worker's resources came free), a batch at a time: never a worker nothing can place
-        waiting alongside one being started."""
+        """Start workers for queued episodes where Ray has room now (a node joined, a lost
+        worker's resources came free), at most once a second and a batch at a time: while a
+        worker is starting (or waiting for room) none is added, so workers the cluster
+        cannot place never pile up."""
         now = time.monotonic()
         if self.halt is not None or self.starting or not queued or now < self.next_growth:
             return
@@ -311,8 +316,9 @@ class _Run:
             self._kill(worker)
 
     def _kill(self, worker: _Worker) -> None:
-        # Also a worker Ray reports unavailable rather than dead: it must not come back and
-        # run what is queued again elsewhere.
+        # A worker Ray reports unavailable may still be running: end it, so that it spends
+        # no more model calls on episodes queued again elsewhere, and its share of the
+        # cluster comes free for a replacement.
         with contextlib.suppress(self.ray.exceptions.RayError):
             self.ray.kill(worker.actor)
 

@@ -26,12 +26,14 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 
+from cocobench_agents.harness.errors import WorkerError
+
 PR_SET_CHILD_SUBREAPER = 36
 START_TIMEOUT_S = 120.0
 STOP_TIMEOUT_S = 30.0
 
 
-class LocalRayError(RuntimeError):
+class LocalRayError(WorkerError):
     """The local Ray could not be started."""
 
 
@@ -62,7 +64,7 @@ def local_ray(num_cpus: int, num_gpus: float | None = None) -> Iterator[LocalRay
     command = [sys.executable, "-m", __name__, "--num-cpus", str(num_cpus)]
     if num_gpus is not None:
         command += ["--num-gpus", str(num_gpus)]
-    auth_env = {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": _token()}
+    auth_env = {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": driver_token()}
     keeper = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True, start_new_session=True,
                               env={**os.environ, **auth_env})
@@ -74,10 +76,12 @@ def local_ray(num_cpus: int, num_gpus: float | None = None) -> Iterator[LocalRay
 
 
 @functools.cache
-def _token() -> str:
-    # A fresh token, passed in the environment: Ray would otherwise write one to ~/.ray, and
-    # anyone on the network could submit work to an unauthenticated Ray. One per driver
-    # process: Ray's token loader keeps the first it reads.
+def driver_token() -> str:
+    """This driver process's Ray authentication token: one per process, as Ray's token loader
+    keeps the first it reads (a cluster this process starts itself, in tests or benchmarks,
+    must use it too)."""
+    # Fresh, and passed in the environment: Ray would otherwise write one to ~/.ray, and
+    # anyone on the network could submit work to an unauthenticated Ray.
     return secrets.token_hex(32)
 
 

@@ -56,7 +56,7 @@ def ray_session(address: str | None = None, *, local_cpus: int = 2,
             address = local.address
         else:
             check_reachable(address)
-        _reload_ray_config()
+        reload_ray_config()
         ray.init(address=address, runtime_env=runtime_env, log_to_driver=False,
                  logging_level=logging.ERROR)
         stack.callback(ray.shutdown)
@@ -92,7 +92,8 @@ def _environment(values: Mapping[str, str]) -> Iterator[None]:
                 os.environ[name] = value
 
 
-def _reload_ray_config() -> None:
+def reload_ray_config() -> None:
+    """Have Ray re-read its authentication settings from the environment."""
     # Ray reads its authentication mode when it is imported; a process that imported Ray
     # before the local Ray's token was set must re-read it (what ray.init does for a Ray it
     # starts itself).

@@ -21,9 +21,8 @@ from cocobench_agents.harness.batch import run_one
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
 from cocobench_agents.harness.store import EpisodeKey
-from cocobench_agents.models import ModelPool, ModelSettings, is_builtin, is_local_url
-from cocobench_agents.models.openai_http import OPENAI_KEY_ENV
-from cocobench_agents.models.providers import key_variables
+from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.models.registry import needed_key_variables
 
 THOR_GPU_VARIABLE = "COCOBENCH_THOR_GPU_DEVICE"
 UNITY_DIED = "ThorCrashed("  # how an infrastructure error from a dead Unity starts
@@ -90,22 +89,11 @@ class EpisodeWorker:
 
 def run_key_variables(settings: ModelSettings, models: Iterable[str]) -> KeyVariables:
     """The variables the run's `models` read their keys from, told as `ModelPool.validate`
-    tells them on the driver (names only): none for built-ins, or for a local `api_base`
-    without `api_key_env`, nor for a provider only LiteLLM knows the variable of (its calls
-    then fail on the node, and stop the run as an authentication error)."""
-    needed: dict[tuple[str, ...], None] = {}
-    for model in dict.fromkeys(models):
-        if is_builtin(model) or (is_local_url(settings.api_base) and not settings.api_key_env):
-            continue
-        if settings.api_key_env:
-            names: tuple[str, ...] | None = (settings.api_key_env,)
-        elif settings.transport == "http":
-            names = (OPENAI_KEY_ENV,)
-        else:
-            names = key_variables(model)
-        if names is not None:
-            needed[names] = None
-    return tuple(needed)
+    tells them on the driver (names only); a provider only LiteLLM knows the variable of is
+    left out (its calls then fail on the node, and stop the run as an authentication
+    error)."""
+    needed = (needed_key_variables(settings, model) for model in dict.fromkeys(models))
+    return tuple(dict.fromkeys(names for names in needed if names))
 
 
 def missing_variables(keys: Sequence[Sequence[str]]) -> tuple[str, ...]:

@@ -206,21 +206,33 @@ class RunFolder:
     def append_result(self, record: dict[str, Any]) -> None:
         """Append one result line, whole or not at all, and fsync it; `RunFolderWriteError`
         (the file cut back to its previous end) if it cannot be written."""
-        line = (json.dumps(record, sort_keys=True, ensure_ascii=False) + "\n").encode("utf-8")
+        append_json_line(self.results_path, record)
+
+    def append_line(self, relative: str, record: dict[str, Any]) -> None:
+        """Append `record` as one whole, fsync'd line to the file at `relative` in the run
+        folder (created, with its folders, if new), as `append_result` appends."""
+        path = self.inside(relative)
         try:
-            fd = os.open(self.results_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+            path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise _write_failed(self.results_path, exc) from None
+            raise _write_failed(path, exc) from None
+        append_json_line(path, record)
+
+    def read_lines(self, relative: str) -> list[dict[str, Any]]:
+        """The whole JSON-object lines of the file at `relative` (none if it is absent),
+        after cutting off a torn last line (a kill in mid-write) so that the next
+        `append_line` starts a line of its own."""
+        path = self.inside(relative)
         try:
-            end = os.lseek(fd, 0, os.SEEK_END)
-            try:
-                _write_all(fd, line)
-                os.fsync(fd)
-            except OSError as exc:
-                _truncate(fd, end)  # no partial line for the next one to be glued to
-                raise _write_failed(self.results_path, exc) from None
-        finally:
-            os.close(fd)
+            data = path.read_bytes()
+        except FileNotFoundError:
+            return []
+        end = data.rfind(b"\n") + 1
+        if end != len(data):
+            with open(path, "r+b") as f:
+                f.truncate(end)
+        return [line for line in (_json_object(raw) for raw in data[:end].splitlines())
+                if line is not None]
 
     def results(self) -> Iterator[dict[str, Any]]:
         """Valid result lines in file order (invalid ones and a torn last line are skipped:
@@ -291,6 +303,35 @@ class RunFolder:
             with open(self.results_path, "r+b") as f:
                 f.truncate(end)
         return len(data) - end
+
+
+def append_json_line(path: Path, record: dict[str, Any]) -> None:
+    """Append `record` to `path` as one JSON line, whole or not at all, and fsync it;
+    `RunFolderWriteError` (the file cut back to its previous end) if it cannot be written."""
+    line = (json.dumps(record, sort_keys=True, ensure_ascii=False) + "\n").encode("utf-8")
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise _write_failed(path, exc) from None
+    try:
+        end = os.lseek(fd, 0, os.SEEK_END)
+        try:
+            _write_all(fd, line)
+            os.fsync(fd)
+        except OSError as exc:
+            _truncate(fd, end)  # no partial line for the next one to be glued to
+            raise _write_failed(path, exc) from None
+    finally:
+        os.close(fd)
+
+
+def _json_object(raw: bytes) -> dict[str, Any] | None:
+    """One line as a JSON object, or None when it is not one."""
+    try:
+        value = json.loads(raw.decode("utf-8"))
+    except (ValueError, RecursionError):
+        return None
+    return value if isinstance(value, dict) else None
 
 
 def result_key(record: dict[str, Any]) -> EpisodeKey:

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .errors import ModelConfigError
+from .human import HUMAN
 from .protocol import MenuOption, ModelReply, ModelRequest
 from .replay import ReplayClient, ReplaySource
 
@@ -30,7 +31,9 @@ __all__ = [
 ]
 
 #: The built-in model names; `scripted` and `replay` take a path (``scripted:FILE``).
-BUILTIN_MODELS = ("greedy", "random", "scripted", "replay")
+#: `human` (a person at a `SeatDesk`) is one too: no endpoint, key or sampling setting
+#: reaches it, and it costs nothing.
+BUILTIN_MODELS = ("greedy", "random", "scripted", "replay", HUMAN)
 
 #: The reference's greedy preference: the lowest-rank skill on the menu wins.
 GREEDY_SKILL_ORDER = (

@@ -25,6 +25,7 @@ class ModelRequest:
     menu: tuple[MenuOption, ...] = ()  # the ids the prompt offers
     agent: str | None = None  # the deciding agent (None for a centralized planner)
     sample_index: int = 0  # epoch / repeated sample; part of the cache key
+    step_index: int = 0  # steps landed so far (shown to a person; never sent to a model)
 
 
 @dataclass(frozen=True)

@@ -13,10 +13,12 @@ from .builtin import (
     ReplaySource,
     Script,
     ScriptedClient,
+    is_builtin,
     split_spec,
 )
 from .cache import ResponseCache
 from .errors import ModelConfigError
+from .human import HUMAN, HumanClient, SeatDesk
 from .litellm_client import LiteLLMClient, import_litellm
 from .openai_http import OPENAI_KEY_ENV, OPENAI_PREFIX, OpenAIHTTPClient, preload
 from .protocol import ModelClient
@@ -24,7 +26,7 @@ from .providers import key_variables, known_provider
 from .remote import RemoteClient
 from .settings import ModelSettings, is_local_url
 
-_BUILTIN_USAGE = "built-ins: greedy, random, random:SEED, scripted:FILE, replay:PATH"
+_BUILTIN_USAGE = "built-ins: greedy, random, random:SEED, scripted:FILE, replay:PATH, human"
 _UNKNOWN_MODEL = (
     "unknown model: LiteLLM cannot tell its provider; write provider/model (e.g. "
     "openai/gpt-4o, anthropic/claude-sonnet-4-5, openai/NAME with --api-base for an "
@@ -40,11 +42,14 @@ class ModelPool:
     Remote clients (LiteLLM, or the ``http`` transport) are shared per model string (one
     concurrency limit and one cache per model); built-in clients are made once per (spec,
     episode, agent), since they keep state.
-    Files named by ``scripted:``/``replay:`` specs are read once per pool.
+    Files named by ``scripted:``/``replay:`` specs are read once per pool; ``human`` seats
+    ask `desk`.
     """
 
-    def __init__(self, settings: ModelSettings | None = None) -> None:
+    def __init__(self, settings: ModelSettings | None = None, *,
+                 desk: SeatDesk | None = None) -> None:
         self.settings = settings if settings is not None else ModelSettings()
+        self.desk = desk
         self.cache = (
             ResponseCache(self.settings.cache_dir) if self.settings.cache_dir is not None else None
         )
@@ -91,9 +96,9 @@ class ModelPool:
     # -- built-ins --------------------------------------------------------------------------
 
     def _builtin_source(self, spec: str, name: str, arg: str | None) -> Script | ReplaySource | int:
-        if name == "greedy":
+        if name in ("greedy", HUMAN):
             if arg is not None:
-                raise ModelConfigError(spec, f"greedy takes no argument ({_BUILTIN_USAGE})")
+                raise ModelConfigError(spec, f"{name} takes no argument ({_BUILTIN_USAGE})")
             return 0
         if name == "random":
             if arg is None:
@@ -122,6 +127,11 @@ class ModelPool:
         source = self._builtin_source(spec, name, arg)
         if name == "greedy":
             return GreedyClient(spec)
+        if name == HUMAN:
+            if self.desk is None:
+                raise ModelConfigError(spec, "a human seat needs a player: run it with "
+                                       "`cocobench run` (it serves a play page)")
+            return HumanClient(self.desk, episode=episode, agent=agent)
         if name == "random":
             assert isinstance(source, int)
             return RandomClient(spec, seed=source, episode=episode, agent=agent)
@@ -144,7 +154,7 @@ class ModelPool:
                 raise ModelConfigError(
                     spec, f"no API key: the variable {s.api_key_env} (--api-key-env) is not set"
                 )
-        elif not is_local_url(s.api_base):  # local servers (llama.cpp, vLLM) rarely check keys
+        else:
             missing = self._missing_keys(spec)
             if missing:
                 raise ModelConfigError(
@@ -157,11 +167,10 @@ class ModelPool:
 
     def _missing_keys(self, spec: str) -> list[str]:
         """The provider's key variables that are not set (none when it cannot be told)."""
-        if self.settings.transport == "http":
-            return [] if os.environ.get(OPENAI_KEY_ENV) else [OPENAI_KEY_ENV]
-        variables = key_variables(spec)
-        if variables is not None:  # a common provider: no need to import LiteLLM to tell
-            return [] if any(os.environ.get(v) for v in variables) else [" or ".join(variables)]
+        variables = needed_key_variables(self.settings, spec)
+        if variables is not None:  # told without importing LiteLLM
+            return [] if not variables or any(os.environ.get(v) for v in variables) else [
+                " or ".join(variables)]
         litellm = import_litellm()
         try:
             env = litellm.validate_environment(model=spec, api_base=self.settings.api_base)
@@ -185,3 +194,16 @@ class ModelPool:
             litellm.get_llm_provider(model=spec, api_base=self.settings.api_base)
         except Exception:  # noqa: BLE001 - LiteLLM raises several types for an unknown model
             raise ModelConfigError(spec, _UNKNOWN_MODEL) from None
+
+
+def needed_key_variables(settings: ModelSettings, model: str) -> tuple[str, ...] | None:
+    """The environment variables `model`'s key is read from under `settings`, any one of
+    which will do (names only): none for a built-in or for a local `api_base` without
+    `api_key_env` (local servers rarely check keys); None when only LiteLLM can tell."""
+    if is_builtin(model) or (is_local_url(settings.api_base) and not settings.api_key_env):
+        return ()
+    if settings.api_key_env:
+        return (settings.api_key_env,)
+    if settings.transport == "http":
+        return (OPENAI_KEY_ENV,)
+    return key_variables(model)

@@ -54,12 +54,12 @@ class ModelSettings(BaseModel):
     api_base: str | None = shaping(
         None, flag="--api-base",
         description="Endpoint URL (e.g. http://127.0.0.1:8080/v1 for a local llama.cpp or "
-                    "vLLM server); None: the provider's default. user:password@ in it is sent "
+                    "vLLM server); unset: the provider's default. user:password@ in it is sent "
                     "as HTTP Basic authorization and never stored.")
     api_key_env: str | None = run_setting(
         None, flag="--api-key-env",
         description="The NAME of the environment variable holding the API key (never the "
-                    "key itself); None: LiteLLM's provider default (OPENAI_API_KEY, ...).")
+                    "key itself); unset: LiteLLM's provider default (OPENAI_API_KEY, ...).")
     timeout_s: float = run_setting(
         180.0, flag="--timeout", gt=0,
         description="HTTP timeout of a call's first attempt in seconds; attempt n gets "
@@ -77,7 +77,7 @@ class ModelSettings(BaseModel):
                     "for model names starting gpt/o1/o3/o4, nothing otherwise).")
     max_tokens: int | None = shaping(
         None, flag="--max-tokens", ge=1,
-        description="Completion token limit per call; None: not sent.")
+        description="Completion token limit per call; unset: not sent.")
     extra_params: dict[str, Any] = shaping(
         default_factory=dict, flag="--extra",
         description="Merged into every call, e.g. {\"top_p\": 0.9} (a JSON object; secrets "
@@ -87,7 +87,7 @@ class ModelSettings(BaseModel):
         description="Constrain replies to the menu ids with a GBNF grammar "
                     "(extra_body.grammar, understood by llama.cpp's server).")
     cache_dir: Path | None = run_setting(
-        None, flag="--cache", description="On-disk response cache folder; None: no cache.")
+        None, flag="--cache", description="On-disk response cache folder; unset: no cache.")
     seed: int | None = shaping(
         None, flag="--seed",
         description="Sent as seed + sample index when set; also seeds the random built-in.")

@@ -13,13 +13,14 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-#: `run.json` options that change the episodes of every model.
-RUN_OPTIONS = ("backend", "max_steps", "stable_ids")
+#: `run.json` options that change the episodes of every model (`agent_models`: a team's
+#: other seats; a human–AI team and a model team are not one row).
+RUN_OPTIONS = ("backend", "max_steps", "stable_ids", "agent_models")
 #: `run.json` model settings that change what a remote model is sent (or what is kept of
 #: its replies); built-in models ignore them.
 MODEL_SETTINGS = ("api_base", "transport", "temperature", "max_tokens", "grammar", "seed",
                   "extra_params", "max_reply_chars")
-_BUILTINS = ("greedy", "random", "scripted", "replay", "oracle")
+_BUILTINS = ("greedy", "random", "scripted", "replay", "human", "oracle")
 
 
 def recorded_settings(record: Mapping[str, Any]) -> tuple[Mapping[str, Any],
@@ -36,7 +37,7 @@ def row_settings(record: Mapping[str, Any], model: str, arm: str = "") -> dict[s
     """What a run's `run.json` says shapes the episodes of `model` (in the run's
     prompt-suite `arm`, if it has arms; missing: None)."""
     options, model_settings = recorded_settings(record)
-    settings = {name: options.get(name) for name in RUN_OPTIONS}
+    settings = {name: options[name] for name in RUN_OPTIONS if name in options}
     suite = _suite(record, arm)
     settings["prompt_suite"] = suite.get("spec")
     if suite.get("content_hash"):  # older runs did not record it

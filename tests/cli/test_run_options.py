@@ -10,7 +10,8 @@ from cocobench_agents.cli.run_cmd import run_command
 from cocobench_agents.engine.request import iter_fields
 from cocobench_agents.setting_kinds import flag_of
 
-OWN = {"config_file", "resume", "retry_errors", "print_config", "dry_run", "as_json", "help"}
+OWN = {"config_file", "resume", "retry_errors", "print_config", "dry_run", "as_json", "help",
+       "port", "no_browser"}
 SOURCES = {"tasks", "suite"}  # both set selection.sources
 
 

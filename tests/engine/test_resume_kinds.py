@@ -43,6 +43,7 @@ def changes(tmp_path: Path, listener: str) -> dict[str, object]:
         "max_concurrency": 2, "cache_dir": str(tmp_path / "cache"), "backoff_s": 0.5,
         "backoff_max_s": 5.0, "executor": "ray", "jobs": 3, "workers": 2,
         "ray_address": ("executor", "ray", listener), "thor_gpus_per_worker": 0.5,
+        "ray_wait": 30.0,
         "max_cost": 10.0, "max_total_tokens": 1_000_000, "episode_timeout": 60.0,
         "preflight": False,
         "out": None,  # the run folder is what is resumed: another one is another run

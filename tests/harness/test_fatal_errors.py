@@ -101,17 +101,20 @@ def test_transient_errors_are_retried_and_never_stop_the_run(server, tmp_path, a
     assert len(records) == EPISODES and all(r["backend_errors"] > 0 for r in records)
 
 
-def test_only_episodes_with_backend_errors_are_read():
-    decision = {"status": "backend_error", "error_kind": "auth", "model": MODEL,
-                "error": "auth: refused"}
-    document = {"trajectory": [{"policy_decision": decision}]}
-    assert fatal_model_error({"backend_errors": 0}, document) is None
-    assert fatal_model_error({"backend_errors": 1}, None) is None
-    found = fatal_model_error({"backend_errors": 1}, document)
-    assert found is not None and (found.model, found.kind) == (MODEL, "auth")
-    timeout = {**decision, "error_kind": "timeout"}
+def test_every_decision_of_an_episode_with_backend_errors_is_read():
+    refused = {"status": "backend_error", "error_kind": "auth", "model": "openai/other",
+               "error": "auth: refused"}
+    # A heterogeneous team: the agent whose model refused the key idled (its decision is on
+    # no step, so the episode's own backend_errors is 0), the others acted.
+    document = {"trajectory": [], "planner_decisions": [{"status": "action"}, refused]}
+    found = fatal_model_error({"backend_errors": 0, "usage": {"backend_errors": 1}}, document)
+    assert found is not None and (found.model, found.kind) == ("openai/other", "auth")
+    assert fatal_model_error({"backend_errors": 1}, None) is None  # it could not run
+    assert fatal_model_error({"backend_errors": 0, "usage": {"backend_errors": 0}},
+                             document) is None  # not read: a clean episode costs nothing
+    timeout = {**refused, "error_kind": "timeout"}
     assert fatal_model_error({"backend_errors": 1},
-                             {"trajectory": [{"policy_decision": timeout}]}) is None
+                             {"planner_decisions": [timeout]}) is None
 
 
 @pytest.mark.parametrize("error", [

@@ -39,8 +39,8 @@ from cocobench_agents.harness import (
 )
 from cocobench_agents.harness.errors import FatalModelError, WorkerEnvironmentError, WorkersLost
 from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
-from cocobench_agents.harness.ray_local import _token
-from cocobench_agents.harness.ray_session import _reload_ray_config
+from cocobench_agents.harness.ray_local import driver_token
+from cocobench_agents.harness.ray_session import reload_ray_config
 from cocobench_agents.harness.summary import node_lines
 from cocobench_agents.models import ModelPool, ModelSettings
 from tests.harness.ray_fake_unity import CONTROL_VARIABLE, fake_thor_backend
@@ -83,10 +83,10 @@ def cluster():
 
     # The nodes inherit this environment: token authentication, with this process's token
     # (Ray keeps the first token a process reads; see ray_local), and the run's key.
-    variables = {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": _token(), KEY: "not-a-secret"}
+    variables = {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": driver_token(), KEY: "not-a-secret"}
     saved = {name: os.environ.get(name) for name in variables}
     os.environ.update(variables)
-    _reload_ray_config()  # this process may have read Ray's authentication mode before
+    reload_ray_config()  # this process may have read Ray's authentication mode before
     cluster = Cluster(initialize_head=True, head_node_args={
         "num_cpus": 1, "num_gpus": 0, "include_dashboard": False})
     try:

@@ -19,8 +19,9 @@ from cocobench_agents.models import (
 
 
 def test_builtin_names():
-    assert BUILTIN_MODELS == ("greedy", "random", "scripted", "replay")
+    assert BUILTIN_MODELS == ("greedy", "random", "scripted", "replay", "human")
     assert is_builtin("random:3") and is_builtin("scripted:x.json") and is_builtin("greedy")
+    assert is_builtin("human")
     assert not is_builtin("openai/gpt-4o") and not is_builtin("ollama/llama3:8b")
 
 

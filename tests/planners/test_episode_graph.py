@@ -32,7 +32,7 @@ def stream(graph, state):
 def test_the_input_schema_is_a_form_studio_can_show():
     schema = build_episode_graph().compile().get_input_jsonschema()
     assert schema["required"] == ["task"]
-    assert {"task", "model", "planner", "obs_mode", "budget", "backend"} <= set(
+    assert {"task", "model", "agent_models", "planner", "obs_mode", "budget", "backend"} <= set(
         schema["properties"])
     assert schema["properties"]["obs_mode"]["enum"] == ["image", "blind"]
 
@@ -74,6 +74,89 @@ def test_model_settings_are_the_run_requests(tmp_path):
 def test_an_unknown_task_names_itself():
     with pytest.raises(ValueError, match="unknown task 'nope'"):
         stream(build_episode_graph().compile(), {"task": "nope", "suite": "demo"})
+
+
+def play_by_interrupts(graph, state, answer):
+    """Run `state` on `graph` (with a checkpointer), resuming each interrupt with
+    `answer(decision)`; the asked decisions, the custom events, the final values."""
+    from langgraph.types import Command
+
+    config = {"configurable": {"thread_id": "play"}}
+    asked, steps, final = [], [], None
+    given = state
+    while True:
+        interrupted = None
+        for mode, chunk in _sync_stream(graph, given, config):
+            if mode == "custom":
+                steps.append(chunk)
+            elif "__interrupt__" in chunk:
+                interrupted = chunk["__interrupt__"][0].value
+            else:
+                final = chunk
+        if interrupted is None:
+            return asked, steps, final
+        asked.append(interrupted)
+        given = Command(resume=answer(interrupted))
+
+
+def _sync_stream(graph, given, config):
+    """The custom events, the values and the interrupt (an update) of one run."""
+    async def collect():
+        return [c async for c in graph.astream(given, config,
+                                               stream_mode=["custom", "values", "updates"])
+                if c[0] != "updates" or "__interrupt__" in c[1]]
+
+    return asyncio.run(collect())
+
+
+def test_a_human_seat_pauses_at_each_of_its_decisions():
+    from langgraph.checkpoint.memory import InMemorySaver
+
+    graph = build_episode_graph().compile(checkpointer=InMemorySaver())
+    state = {**TASK, "planner": "decentralized-broadcast", "obs_mode": "blind",
+             "agent_models": {"agent_1": "human"}}
+    asked, steps, final = play_by_interrupts(graph, state, lambda d: {
+        "action_id": d["menu"][0]["id"], "message": f"my move {d['step_index']}"})
+    assert asked and {d["seat"] for d in asked} == {"agent_1"}
+    assert all(d["wants_message"] and d["prompt"] and d["menu"] for d in asked)
+    assert [d["id"].rpartition("#")[2] for d in asked] == [str(n + 1) for n in range(len(asked))]
+    result = final["result"]
+    assert result["models"] == {"agent_1": "human", "agent_2": "greedy"}
+    assert result["num_steps"] == 4
+    assert [s["step"] for s in steps] == [1, 2, 3, 4]  # each once, though replayed
+
+
+def test_several_human_seats_are_asked_in_the_planners_order():
+    from langgraph.checkpoint.memory import InMemorySaver
+
+    graph = build_episode_graph().compile(checkpointer=InMemorySaver())
+    state = {**TASK, "model": "human", "planner": "decentralized", "obs_mode": "blind"}
+    asked, _, final = play_by_interrupts(graph, state,
+                                         lambda d: {"action_id": d["menu"][-1]["id"]})
+    assert [d["id"].partition("#")[2] for d in asked] == [
+        "agent_1#1", "agent_2#1", "agent_1#2", "agent_2#2"]  # round by round, agent order
+    assert final["result"]["num_steps"] == 4
+
+
+def test_a_resume_off_the_menu_is_refused_and_can_be_answered_again():
+    from langgraph.checkpoint.memory import InMemorySaver
+    from langgraph.types import Command
+    from pydantic import ValidationError
+
+    graph = build_episode_graph().compile(checkpointer=InMemorySaver())
+    config = {"configurable": {"thread_id": "refused"}}
+    first = asyncio.run(graph.ainvoke({**TASK, "model": "human", "budget": 1}, config))
+    decision = first["__interrupt__"][0].value
+    with pytest.raises(ValidationError, match="action 9999 is not on the menu"):
+        asyncio.run(graph.ainvoke(Command(resume={"action_id": 9999}), config))
+    final = asyncio.run(graph.ainvoke(
+        Command(resume={"action_id": decision["menu"][0]["id"]}), config))
+    assert final["result"]["num_steps"] == 1 and final["result"]["model"] == "human"
+    done = asyncio.run(graph.ainvoke({**TASK, "model": "human"},
+                                     {"configurable": {"thread_id": "done"}}))
+    final = asyncio.run(graph.ainvoke(Command(resume={"action_id": None}),
+                                      {"configurable": {"thread_id": "done"}}))
+    assert done["__interrupt__"] and final["result"]["terminal_reason"] == "done"
 
 
 def _free_port() -> int:
@@ -145,3 +228,41 @@ def test_langgraph_dev_runs_an_episode_through_the_sdk(langgraph_server):
     assert steps and all("call" in s for s in steps)
     last = [e.data for e in events if e.event == "values"][-1]
     assert last["result"]["task_success"] == 1
+
+
+@pytest.mark.slow
+def test_langgraph_dev_asks_a_human_seat_through_interrupts(langgraph_server):
+    from langgraph_sdk import get_client
+
+    human = {**TASK, "model": "human", "budget": 2, "obs_mode": "blind"}
+
+    async def run():
+        client = get_client(url=langgraph_server)
+        for _ in range(60):  # the server answers before it has loaded the graphs
+            if await client.assistants.search(graph_id="episode"):
+                break
+            await asyncio.sleep(1)
+        thread = (await client.threads.create())["thread_id"]
+        first = await client.runs.wait(thread, "episode", input=human)
+        refused = await client.runs.wait(thread, "episode", raise_error=False,
+                                         command={"resume": {"action_id": 9999}})
+        still = await client.threads.get_state(thread)
+        menu = first["__interrupt__"][0]["value"]["menu"]
+        second = await client.runs.wait(thread, "episode", command={"resume": {
+            "action_id": menu[0]["id"], "reason": "closest"}})
+        last = second["__interrupt__"][0]["value"]
+        parts = [part async for part in client.runs.stream(
+            thread, "episode", command={"resume": {"action_id": last["menu"][0]["id"]}},
+            stream_mode=["custom", "values"])]
+        return first, refused, still, second, parts
+
+    first, refused, still, second, parts = asyncio.run(run())
+    interrupt = first["__interrupt__"][0]
+    assert interrupt["value"]["seat"] == "team" and interrupt["value"]["step_index"] == 0
+    assert interrupt["response_schema"]["properties"]["action_id"]
+    assert "action 9999 is not on the menu" in refused["__error__"]["message"]
+    assert still["next"] == ["ask"]
+    assert second["__interrupt__"][0]["value"]["step_index"] == 1
+    assert [p.data["step"] for p in parts if p.event == "custom"] == [2]  # the new step only
+    final = [p.data for p in parts if p.event == "values"][-1]["result"]
+    assert final["model"] == "human" and final["num_steps"] == 2

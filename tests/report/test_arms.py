@@ -79,3 +79,17 @@ def test_the_cli_refuses_in_one_line_and_arms_keep_runs_apart(tmp_path, capsys):
     assert data.models == [f"{REMOTE} @{a}", f"{REMOTE} @{b}"]
     assert data.superseded_across_runs == 0
     assert f"{REMOTE} @{b}" in (tmp_path / "report" / "main_results.md").read_text()
+
+
+def test_runs_whose_teams_differ_are_not_one_row(tmp_path, capsys):
+    from cocobench_agents.cli import main
+
+    common = ["run", "--suite", "demo", "--only-cell", "G_D1", "--model", "greedy",
+              "--conditions", "D1_blind", "--max-steps", "2"]
+    assert main([*common, "--out", str(tmp_path / "team")]) == 0
+    assert main([*common, "--agent-model", "agent_2=random:1",
+                 "--out", str(tmp_path / "mixed")]) == 0
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "team"), str(tmp_path / "mixed"), "--out",
+                 str(tmp_path / "report"), "--no-plots"]) == 2
+    assert "differ in agent_models" in capsys.readouterr().err

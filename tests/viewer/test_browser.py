@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -35,11 +34,8 @@ def shots(tmp_path: Path) -> Path:
 
 @pytest.fixture
 def live(run_copy: Path) -> Iterator[str]:
-    server = ViewerServer(Pages.create(Catalog([run_copy]), live=True), 0)
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    yield server.url
-    server.shutdown()
-    server.server_close()
+    with ViewerServer(Pages.create(Catalog([run_copy]), live=True), 0) as server:
+        yield server.url
 
 
 def results(run: Path) -> list[dict]:

@@ -3,12 +3,12 @@ what it serves, and how it fails (bad folders, a port in use, a non-empty export
 
 from __future__ import annotations
 
+import http.client
 import json
 import re
 import socket
 import subprocess
 import sys
-import threading
 import urllib.error
 import urllib.request
 from collections.abc import Iterator
@@ -26,12 +26,8 @@ from .test_pages import listed
 
 @pytest.fixture
 def server(run_copy: Path) -> Iterator[ViewerServer]:
-    srv = ViewerServer(Pages.create(Catalog([run_copy]), live=True), 0)
-    thread = threading.Thread(target=srv.serve_forever, daemon=True)
-    thread.start()
-    yield srv
-    srv.shutdown()
-    srv.server_close()
+    with ViewerServer(Pages.create(Catalog([run_copy]), live=True), 0) as srv:
+        yield srv
 
 
 def get(url: str) -> tuple[int, str]:
@@ -43,7 +39,7 @@ def get(url: str) -> tuple[int, str]:
 
 
 def test_server_serves_pages_assets_and_live_rows(server: ViewerServer, run_copy: Path) -> None:
-    assert server.server_address[0] == "127.0.0.1"
+    assert server.url == f"http://127.0.0.1:{server.port}/"
     status, index = get(server.url)
     assert status == 200 and len(listed(index)) == 8
     href = listed(index)[0]["h"]
@@ -60,6 +56,21 @@ def test_server_serves_pages_assets_and_live_rows(server: ViewerServer, run_copy
     fresh = json.loads(get(server.url + f"api/rows?since={seq}")[1])
     assert len(fresh["rows"]) == 1 and fresh["episodes"] == 9
     assert len(listed(get(server.url)[1])) == 9  # no restart needed
+
+
+def test_server_answers_only_to_its_own_address(server: ViewerServer) -> None:
+    """A page that DNS rebinding points at 127.0.0.1 sends its own host name: refused."""
+    def status(host: str) -> int:
+        connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=10)
+        try:
+            connection.request("GET", "/", headers={"Host": host})
+            return connection.getresponse().status
+        finally:
+            connection.close()
+
+    assert status(f"127.0.0.1:{server.port}") == status(f"localhost:{server.port}") == 200
+    assert status(f"attacker.example:{server.port}") == 403
+    assert status("127.0.0.1:1") == 403
 
 
 def test_missing_folder_and_folder_without_run_json_exit_2(tmp_path: Path,

@@ -1,0 +1,109 @@
+"""An aiohttp application served on 127.0.0.1 from its own thread and event loop, so that
+the caller's thread stays free (`cocobench view` waits for Ctrl-C; `cocobench run` runs the
+engine's own `asyncio.run` while the play page is served).
+
+Every request must name the bound address in its `Host` header: a page of another site that
+a DNS-rebinding attack points at 127.0.0.1 sends its own host name and is refused.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import errno
+import threading
+from collections.abc import Awaitable, Callable
+from concurrent.futures import Future
+
+from aiohttp import hdrs, web
+
+from cocobench_agents.viewer.errors import ViewerError
+
+HOST = "127.0.0.1"
+#: How long the server waits, when it stops, for requests still being answered.
+SHUTDOWN_TIMEOUT_S = 2.0
+
+Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
+
+
+@web.middleware
+async def host_guard(request: web.Request, handler: Handler) -> web.StreamResponse:
+    """Refuse a request whose `Host` is not this server's own address (DNS rebinding)."""
+    port = request.transport.get_extra_info("sockname")[1] if request.transport else None
+    if request.headers.get(hdrs.HOST) not in {f"{HOST}:{port}", f"localhost:{port}"}:
+        return web.json_response({"error": "this server answers only to its own address "
+                                           f"({HOST}:{port} or localhost:{port})"}, status=403)
+    return await handler(request)
+
+
+class LocalServer:
+    """Serves `app` on 127.0.0.1:`port` (0: any free port) from a daemon thread between
+    `start()` and `stop()`."""
+
+    def __init__(self, app: web.Application, port: int) -> None:
+        self.app = app
+        self.requested_port = port
+        self.port = 0
+        self._thread: threading.Thread | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop: asyncio.Event | None = None
+
+    @property
+    def url(self) -> str:
+        return f"http://{HOST}:{self.port}/"
+
+    def start(self) -> LocalServer:
+        """Bind and serve; raise `ViewerError` when the port cannot be had."""
+        bound: Future[int] = Future()
+        self._thread = threading.Thread(target=self._serve, args=(bound,), daemon=True,
+                                        name=f"cocobench-server-{self.requested_port}")
+        self._thread.start()
+        self.port = bound.result()
+        return self
+
+    def stop(self) -> None:
+        """Stop listening, let requests in progress finish (briefly), end the thread."""
+        if self._loop is None or self._stop is None or self._thread is None:
+            return
+        self._loop.call_soon_threadsafe(self._stop.set)
+        self._thread.join(SHUTDOWN_TIMEOUT_S + 5)
+        self._loop = self._stop = self._thread = None
+
+    def __enter__(self) -> LocalServer:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def _serve(self, bound: Future[int]) -> None:
+        loop = asyncio.new_event_loop()
+        try:
+            loop.run_until_complete(self._main(loop, bound))
+        except Exception as exc:
+            if bound.done():
+                raise
+            bound.set_exception(exc)  # start() raises it rather than wait forever
+        finally:
+            loop.close()
+
+    async def _main(self, loop: asyncio.AbstractEventLoop, bound: Future[int]) -> None:
+        runner = web.AppRunner(self.app, access_log=None, shutdown_timeout=SHUTDOWN_TIMEOUT_S)
+        await runner.setup()
+        try:
+            await web.TCPSite(runner, HOST, self.requested_port).start()
+        except OSError as exc:
+            await runner.cleanup()
+            bound.set_exception(_bind_error(self.requested_port, exc))
+            return
+        self._loop, self._stop = loop, asyncio.Event()
+        bound.set_result(runner.addresses[0][1])
+        try:
+            await self._stop.wait()
+        finally:
+            await runner.cleanup()
+
+
+def _bind_error(port: int, exc: OSError) -> ViewerError:
+    if exc.errno == errno.EADDRINUSE:
+        return ViewerError(f"port {port} on {HOST} is already in use: pass --port with a "
+                           "free one (0 picks any)")
+    return ViewerError(f"cannot listen on {HOST}:{port}: {exc.strerror or exc}")

@@ -1,0 +1,280 @@
+"""The play desk and its server over real HTTP on 127.0.0.1, without the engine: a thread
+with its own event loop asks decisions as the engine does. Only the player plays (token,
+Host), a refused answer changes nothing, and answers reach the asking seat."""
+
+from __future__ import annotations
+
+import asyncio
+import http.client
+import json
+import threading
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future
+from concurrent.futures import TimeoutError as FutureTimeout
+from typing import Any
+
+import pytest
+
+from cocobench_agents.engine import events
+from cocobench_agents.models.human import Answer, Decision
+from cocobench_agents.play.desk import AskedTwice, PlayDesk
+from cocobench_agents.play.prompt_parts import menu_labels, prompt_parts
+from cocobench_agents.play.server import TOKEN_HEADER, PlayServer
+
+PROMPT = """You are agent_1, one of 2 robots (agent_1, agent_2).
+
+GOAL: Put the Apple in the Fridge
+
+GOAL PROGRESS (live simulator state — trust this over your action history):
+  [✗] Put the Apple in the Fridge
+  0/1 objectives complete.
+
+TEAMMATE MESSAGES (most recent last):
+  agent_2: I open the fridge
+
+YOUR ACTION MENU (action_id: skill):
+  3: agent_1: pick up the Apple
+  7: agent_1: wait
+
+YOUR RECENT ACTIONS (most recent last):
+  1. Find(agent_1, Apple) -> ok
+
+YOUR STATE: holding=empty"""
+
+
+def decision(n: int = 1, *, wants_message: bool = True) -> Decision:
+    return Decision(id=f"human/D1_blind/T#agent_1#{n}", seat="agent_1", prompt=PROMPT,
+                    episode="human/D1_blind/T",
+                    menu=({"id": 3, "skill": "PickUp", "call": "PickUp(agent_1, Apple)"},
+                          {"id": 7, "skill": "Wait", "call": "Wait(agent_1)"}),
+                    wants_message=wants_message)
+
+
+class Engine:
+    """Stands in for the engine's thread: its own event loop, asking the desk."""
+
+    def __init__(self, desk: PlayDesk) -> None:
+        self.desk = desk
+        self.loop = asyncio.new_event_loop()
+        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
+        self.thread.start()
+
+    def ask(self, asked: Decision) -> Future[Answer]:
+        return asyncio.run_coroutine_threadsafe(self.desk.ask(asked), self.loop)
+
+    def close(self) -> None:
+        self.loop.call_soon_threadsafe(self.loop.stop)
+        self.thread.join(10)
+
+
+@pytest.fixture
+def desk() -> PlayDesk:
+    return PlayDesk()
+
+
+@pytest.fixture
+def engine(desk: PlayDesk) -> Iterator[Engine]:
+    engine = Engine(desk)
+    yield engine
+    engine.close()
+
+
+@pytest.fixture
+def server(desk: PlayDesk) -> Iterator[PlayServer]:
+    with PlayServer(desk, 0) as server:
+        yield server
+
+
+def call(server: PlayServer, method: str, path: str, *, body: Any = None,
+         token: str | None = "ok", host: str | None = None) -> tuple[int, Any]:
+    """One HTTP request: the run's token in the header unless `token` is None (or the given
+    wrong one), the server's own Host unless `host`."""
+    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=30)
+    headers = {"Host": host or f"127.0.0.1:{server.port}"}
+    if token is not None:
+        headers[TOKEN_HEADER] = server.token if token == "ok" else token
+    data = body if isinstance(body, bytes) or body is None else json.dumps(body).encode()
+    if data is not None:
+        headers["Content-Type"] = "application/json"
+    try:
+        connection.request(method, path, body=data, headers=headers)
+        response = connection.getresponse()
+        text = response.read().decode()
+        kind = response.getheader("Content-Type", "")
+        return response.status, json.loads(text) if "json" in kind else text
+    finally:
+        connection.close()
+
+
+def state(server: PlayServer) -> dict[str, Any]:
+    status, body = call(server, "GET", "/play/api/state")
+    assert status == 200
+    return body
+
+
+def wait_until(check: Callable[[], bool], timeout: float = 10) -> None:
+    deadline = time.monotonic() + timeout
+    while not check():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.02)
+
+
+def pending(server: PlayServer) -> dict[str, Any]:
+    wait_until(lambda: state(server)["decision"] is not None)
+    return state(server)["decision"]
+
+
+def test_the_page_needs_the_token_in_its_query(server: PlayServer) -> None:
+    status, html = call(server, "GET", f"/play?token={server.token}", token=None)
+    assert status == 200 and "cocobench play" in html and server.token not in html
+    assert call(server, "GET", "/play", token=None)[0] == 403
+    assert call(server, "GET", "/play?token=wrong", token=None)[0] == 403
+    # the header is for the API; the page itself is opened from the printed URL
+    assert call(server, "GET", "/play")[0] == 403
+    assert server.play_url == f"http://127.0.0.1:{server.port}/play?token={server.token}"
+
+
+def test_the_page_runs_only_its_own_script(server: PlayServer) -> None:
+    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=30)
+    connection.request("GET", f"/play?token={server.token}")
+    response = connection.getresponse()
+    policy = response.getheader("Content-Security-Policy")
+    connection.close()
+    assert "default-src 'none'" in policy and "script-src 'sha256-" in policy
+    assert response.getheader("Referrer-Policy") == "no-referrer"
+
+
+def test_api_calls_need_the_token_header_and_the_own_host(server: PlayServer,
+                                                          engine: Engine) -> None:
+    engine.ask(decision())
+    shown = pending(server)
+    answer = {"decision": shown["id"], "action_id": 3}
+    for kwargs in ({"token": None}, {"token": "wrong"}, {"token": server.token[:-1]},
+                   {"host": f"attacker.example:{server.port}"}, {"host": "127.0.0.1:1"}):
+        assert call(server, "GET", "/play/api/state", **kwargs)[0] == 403, kwargs
+        status, body = call(server, "POST", "/play/api/answer", body=answer, **kwargs)
+        assert status == 403 and "error" in body, kwargs
+    assert state(server)["decision"]["id"] == shown["id"]  # nothing taken
+    assert call(server, "GET", "/play/api/state", host=f"localhost:{server.port}")[0] == 200
+
+
+@pytest.mark.parametrize(("body", "status", "says"), [
+    (b"not json", 400, "malformed"),
+    (b"", 400, "malformed"),
+    ([3], 400, "malformed"),
+    ({"action_id": 3}, 400, "decision"),
+    ({"decision": "D", "action_id": "3"}, 400, "action_id"),
+    ({"decision": "D", "action_id": True}, 400, "action_id"),
+    ({"decision": "D", "action_id": 3, "cheat": 1}, 400, "cheat"),
+    ({"decision": "D", "action_id": 3, "reason": "x" * 1001}, 400, "reason"),
+    ({"decision": "D", "action_id": 4}, 422, "not on the menu"),
+    ({"decision": "D", "action_id": 3, "message": "hi"}, 422, "sends no messages"),
+    ({"decision": "human/D1_blind/T#agent_1#9", "action_id": 3}, 409, "not waiting"),
+])
+def test_a_refused_answer_changes_nothing(server: PlayServer, engine: Engine, body: Any,
+                                          status: int, says: str) -> None:
+    asked = engine.ask(decision(wants_message=False))
+    shown = pending(server)
+    if isinstance(body, dict) and body.get("decision") == "D":
+        body = body | {"decision": shown["id"]}
+    before = state(server)
+    got, reply = call(server, "POST", "/play/api/answer", body=body)
+    assert (got, says in reply["error"]) == (status, True), reply
+    assert state(server) == before and not asked.done()
+
+
+def test_a_too_large_body_is_refused(server: PlayServer, engine: Engine) -> None:
+    engine.ask(decision())
+    pending(server)
+    status, reply = call(server, "POST", "/play/api/answer", body=b"{" + b" " * 20_000 + b"}")
+    assert status == 413 and "larger" in reply["error"]
+
+
+def test_an_answer_reaches_the_seat_once(server: PlayServer, engine: Engine) -> None:
+    asked = engine.ask(decision())
+    shown = pending(server)
+    assert [o["label"] for o in shown["menu"]] == ["agent_1: pick up the Apple",
+                                                  "agent_1: wait"]
+    assert shown["parts"]["messages"] == "agent_2: I open the fridge"
+    answer = {"decision": shown["id"], "action_id": 3, "reason": "closest",
+              "message": "apple is mine"}
+    assert call(server, "POST", "/play/api/answer", body=answer) == (
+        200, {"accepted": shown["id"]})
+    got = asked.result(10)
+    assert (got.action_id, got.reason, got.message) == (3, "closest", "apple is mine")
+    assert got.think_s > 0
+    status, reply = call(server, "POST", "/play/api/answer", body=answer | {"action_id": 7})
+    assert status == 409 and "not waiting" in reply["error"]
+    assert state(server)["decision"] is None
+
+
+def test_done_is_answered_with_a_null_id(server: PlayServer, engine: Engine) -> None:
+    asked = engine.ask(decision())
+    shown = pending(server)
+    status, _ = call(server, "POST", "/play/api/answer",
+                     body={"decision": shown["id"], "action_id": None})
+    assert status == 200 and asked.result(10).action_id is None
+
+
+def test_a_waiting_state_request_answers_when_a_decision_comes(server: PlayServer,
+                                                               engine: Engine) -> None:
+    version = state(server)["version"]
+    waiting: Future[tuple[int, Any]] = Future()
+    threading.Thread(target=lambda: waiting.set_result(
+        call(server, "GET", f"/play/api/state?after={version}")), daemon=True).start()
+    with pytest.raises(FutureTimeout):  # the request waits on the server for a change
+        waiting.result(0.3)
+    engine.ask(decision())
+    status, body = waiting.result(10)
+    assert status == 200 and body["decision"]["id"] == decision().id
+    assert call(server, "GET", "/play/api/state?after=x")[0] == 400
+
+
+def test_one_decision_is_asked_at_a_time(server: PlayServer, engine: Engine) -> None:
+    """The runner asks one at a time (`SeatDesk`); a second ask meanwhile is its bug."""
+    first = engine.ask(decision(1))
+    pending(server)
+    with pytest.raises(AskedTwice):
+        engine.ask(decision(2)).result(10)
+    assert state(server)["decision"]["id"] == decision(1).id and not first.done()
+
+
+def test_a_cancelled_ask_is_withdrawn(server: PlayServer, engine: Engine) -> None:
+    asked = engine.ask(decision())
+    shown = pending(server)
+    asked.cancel()  # the episode timed out, or the run was interrupted
+    wait_until(lambda: state(server)["decision"] is None)
+    status, _ = call(server, "POST", "/play/api/answer",
+                     body={"decision": shown["id"], "action_id": 3})
+    assert status == 409
+
+
+def test_the_run_s_events_and_its_end_are_shown(server: PlayServer, desk: PlayDesk,
+                                                tmp_path: Any) -> None:
+    desk.on_event(events.RunStarted(tmp_path, 2, 0))
+    key = {"model": "human", "condition": "C0_blind", "task_id": "T"}
+    desk.on_event(events.EpisodeStarted(key))
+    desk.on_event(events.StepLanded(key, {}))  # not shown
+    record = key | {"task_success": True, "construct_score": 0.5, "terminal_reason": "done",
+                    "num_steps": 4, "usage": {"prompt_tokens": 0}}
+    desk.on_event(events.EpisodeRecorded(record))
+    shown = state(server)
+    assert shown["run"]["total"] == 2 and shown["episode"] == key
+    assert shown["outcomes"] == [{k: record.get(k) for k in shown["outcomes"][0]}]
+    assert shown["outcomes"][0]["construct_score"] == 0.5 and "usage" not in shown["outcomes"][0]
+    desk.finish("2 of 2 episodes recorded")
+    assert state(server)["ended"] == "2 of 2 episodes recorded"
+
+
+def test_prompt_parts_of_the_shipped_suite() -> None:
+    parts = prompt_parts(PROMPT)
+    assert parts == {
+        "goal": "Put the Apple in the Fridge",
+        "progress": "[✗] Put the Apple in the Fridge\n0/1 objectives complete.",
+        "messages": "agent_2: I open the fridge",
+        "menu": "3: agent_1: pick up the Apple\n7: agent_1: wait",
+        "history": "1. Find(agent_1, Apple) -> ok",
+        "state": "holding=empty"}
+    assert menu_labels(parts) == {3: "agent_1: pick up the Apple", 7: "agent_1: wait"}
+    assert prompt_parts("a prompt of one's own wording") == {}
