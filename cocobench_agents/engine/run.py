@@ -1,7 +1,8 @@
 """The engine: `run(request)` runs a `RunRequest` into its run folder and returns the results.
 
-Every door ends here: `cocobench run` (flags, config files, ``COCOBENCH_RUN_*``),
-`evaluate()`, the LangGraph `episode` graph's batch sibling and the Ray driver. The engine
+Every door ends here: `cocobench run` (flags, config files, ``COCOBENCH_RUN_*``) and
+`evaluate()` build a request and call `run`; the executors it picks (this process, worker
+processes, the Ray driver) take the request's own settings types. The engine
 prints nothing and imports neither click nor rich; it tells a front end what happens through
 `on_event` (`events`), and raises `RequestError` for a mistake in the request (nothing run)
 or `RunStopped` when a run stops early (what finished is recorded).
@@ -95,7 +96,9 @@ def _checked(request: RunRequest, record: dict[str, Any] | None, folder: RunFold
     """The resolved request, after every check that needs nothing but the request and the
     recorded run (each failure a `RequestError` or another user error: nothing written)."""
     check_credentials_given(request)
-    if record is not None:
+    if record is None:  # a new run: a mistyped model or a missing key is told before any
+        _check_model_names(request)  # instance loads (a resume may have nothing to run)
+    else:
         recorded = canonical(request_from_record(record, folder.path / "run.json"))
         refused = refused_changes(recorded, request)
         if refused:
@@ -140,6 +143,14 @@ def _logged_desk(desk: SeatDesk | None, request: RunRequest, todo: list[PlannedE
     if desk is None:
         raise RequestError(_NO_DESK)
     return LoggedDesk(desk, folder)
+
+
+def _check_model_names(request: RunRequest) -> None:
+    """Unknown models and missing API keys among the models `request` names."""
+    pool = ModelPool(request.model_settings)
+    for model in [*request.models, *request.agent_models.values()]:
+        if model != "oracle":
+            pool.validate(model)
 
 
 def _check_models(pool: ModelPool, resolved: ResolvedRun) -> None:

@@ -1,78 +1,64 @@
 """Model clients: the `ModelClient` protocol, the remote clients (LiteLLM, and the lean
 OpenAI-compatible ``http`` transport), offline built-ins, and the
 `ModelPool` that makes them from spec strings. Importing this package does not import LiteLLM
-(that happens on first use)."""
+(that happens on first use).
 
-from .builtin import (
-    BUILTIN_MODELS,
-    GREEDY_SKILL_ORDER,
-    GreedyClient,
-    RandomClient,
-    Script,
-    ScriptedClient,
-    greedy_choice,
-    is_builtin,
-    split_spec,
-)
-from .cache import ResponseCache, cache_key
-from .errors import ModelConfigError
-from .grammar import menu_grammar, wants_message
-from .litellm_client import LiteLLMClient, import_litellm
-from .messages import build_messages, cap_reply, image_data_url
-from .openai_http import OpenAIHTTPClient
-from .protocol import MenuOption, ModelClient, ModelError, ModelReply, ModelRequest
-from .registry import ModelPool
-from .remote import Completion, RemoteClient
-from .replay import ReplayClient, ReplaySource, recorded_replies
-from .retry import RetryPolicy
-from .secrets import REDACTED, redact, redact_obj
-from .settings import (
-    LOCAL_PLACEHOLDER_KEY,
-    TEMPERATURE_AUTO,
-    TRANSPORTS,
-    ModelSettings,
-    is_local_url,
-)
+Names load on first use (PEP 562): a module that needs one name (the run request needs
+`ModelSettings`) does not pay for every client.
+"""
 
-__all__ = [
-    "BUILTIN_MODELS",
-    "GREEDY_SKILL_ORDER",
-    "LOCAL_PLACEHOLDER_KEY",
-    "REDACTED",
-    "TEMPERATURE_AUTO",
-    "TRANSPORTS",
-    "Completion",
-    "GreedyClient",
-    "LiteLLMClient",
-    "MenuOption",
-    "ModelClient",
-    "ModelConfigError",
-    "ModelError",
-    "ModelPool",
-    "ModelReply",
-    "ModelRequest",
-    "ModelSettings",
-    "OpenAIHTTPClient",
-    "RandomClient",
-    "RemoteClient",
-    "ReplayClient",
-    "ReplaySource",
-    "ResponseCache",
-    "RetryPolicy",
-    "Script",
-    "ScriptedClient",
-    "build_messages",
-    "cache_key",
-    "cap_reply",
-    "greedy_choice",
-    "image_data_url",
-    "import_litellm",
-    "is_builtin",
-    "is_local_url",
-    "menu_grammar",
-    "recorded_replies",
-    "redact",
-    "redact_obj",
-    "split_spec",
-    "wants_message",
-]
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "BUILTIN_MODELS": "builtin",
+    "GREEDY_SKILL_ORDER": "builtin",
+    "GreedyClient": "builtin",
+    "RandomClient": "builtin",
+    "Script": "builtin",
+    "ScriptedClient": "builtin",
+    "greedy_choice": "builtin",
+    "is_builtin": "builtin",
+    "split_spec": "builtin",
+    "ResponseCache": "cache",
+    "cache_key": "cache",
+    "ModelConfigError": "errors",
+    "menu_grammar": "grammar",
+    "wants_message": "grammar",
+    "LiteLLMClient": "litellm_client",
+    "import_litellm": "litellm_client",
+    "build_messages": "messages",
+    "cap_reply": "messages",
+    "image_data_url": "messages",
+    "OpenAIHTTPClient": "openai_http",
+    "MenuOption": "protocol",
+    "ModelClient": "protocol",
+    "ModelError": "protocol",
+    "ModelReply": "protocol",
+    "ModelRequest": "protocol",
+    "ModelPool": "registry",
+    "Completion": "remote",
+    "RemoteClient": "remote",
+    "ReplayClient": "replay",
+    "ReplaySource": "replay",
+    "recorded_replies": "replay",
+    "RetryPolicy": "retry",
+    "REDACTED": "secrets",
+    "redact": "secrets",
+    "redact_obj": "secrets",
+    "LOCAL_PLACEHOLDER_KEY": "settings",
+    "ModelSettings": "settings",
+    "TEMPERATURE_AUTO": "settings",
+    "TRANSPORTS": "settings",
+    "is_local_url": "settings",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), name)

@@ -1,29 +1,38 @@
-"""Versioned prompt suites, their rendering, and the reply parser."""
+"""Versioned prompt suites, their rendering, and the reply parser.
 
-from cocobench_agents.prompts.fields import TEMPLATE_FIELDS
-from cocobench_agents.prompts.hints import coordination_hint
-from cocobench_agents.prompts.parse import ParsedReply, parse_message, parse_reply
-from cocobench_agents.prompts.render import (
-    PromptInputs,
-    history_line,
-    render_centralized,
-    render_distributed,
-    render_leader,
-)
-from cocobench_agents.prompts.suite import (
-    DEFAULT_SUITE,
-    VARIANTS,
-    PromptSuite,
-    PromptSuiteError,
-    available_suites,
-    check_unchanged,
-    load_prompt_suite,
-    shipped_suite_files,
-)
+Names load on first use (PEP 562): the run request needs only `DEFAULT_SUITE`.
+"""
 
-__all__ = [
-    "DEFAULT_SUITE", "TEMPLATE_FIELDS", "VARIANTS", "ParsedReply", "PromptInputs", "PromptSuite",
-    "PromptSuiteError", "available_suites", "check_unchanged", "coordination_hint",
-    "history_line", "load_prompt_suite", "parse_message", "parse_reply", "render_centralized",
-    "render_distributed", "render_leader", "shipped_suite_files",
-]
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "TEMPLATE_FIELDS": "fields",
+    "coordination_hint": "hints",
+    "ParsedReply": "parse",
+    "parse_message": "parse",
+    "parse_reply": "parse",
+    "PromptInputs": "render",
+    "history_line": "render",
+    "render_centralized": "render",
+    "render_distributed": "render",
+    "render_leader": "render",
+    "DEFAULT_SUITE": "suite",
+    "PromptSuite": "suite",
+    "PromptSuiteError": "suite",
+    "VARIANTS": "suite",
+    "available_suites": "suite",
+    "check_unchanged": "suite",
+    "load_prompt_suite": "suite",
+    "shipped_suite_files": "suite",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), name)

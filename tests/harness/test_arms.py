@@ -36,7 +36,8 @@ def comparable(out: Path) -> dict[tuple, tuple[dict, str]]:
         key = (record["model"], record["condition"], record.get("arm"), record["task_id"],
                record["epoch"])
         assert key not in found, f"{key} recorded twice"
-        record.pop("elapsed_s")
+        for where in ("elapsed_s", "node", "requeued"):  # wall-clock time; where Ray ran it
+            record.pop(where, None)
         found[key] = (record, (out / record["trajectory"]).read_text())
     return found
 
