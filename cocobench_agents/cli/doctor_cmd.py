@@ -9,7 +9,6 @@ some runs need (AI2-THOR, model API keys, optional libraries) warns. API keys ar
 from __future__ import annotations
 
 import os
-import re
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -97,16 +96,18 @@ def check_packages(
 
 
 def core_requirements(distribution: str = "cocobench-agents") -> list[str]:
-    """Names of a distribution's requirements outside any extra, as installed."""
+    """Names of a distribution's requirements outside any extra that apply here (their
+    environment markers hold: ``tomli; python_version < '3.11'`` not on 3.11), as
+    installed."""
+    from packaging.requirements import Requirement
+
     try:
         specs = requires(distribution) or []
     except PackageNotFoundError:
         return []
-    return [
-        re.split(r"[\s<>=!~;\[(]", spec, maxsplit=1)[0].lower()
-        for spec in specs
-        if "extra ==" not in spec.replace('"', "").replace("'", "")
-    ]
+    required = (Requirement(spec) for spec in specs)
+    return [req.name.lower() for req in required
+            if req.marker is None or req.marker.evaluate({"extra": ""})]
 
 
 def _ai2thor_version_check(found: str | None) -> list[Check]:
