@@ -13,7 +13,7 @@ from typing import Any
 _EXPORTS = {
     "RunRequest": "request", "TaskSelection": "request", "ExecutionSettings": "request",
     "Limits": "request",
-    "run": "run", "run_async": "run", "plan": "dry_run", "RunPlan": "dry_run",
+    "run": "run", "run_async": "run", "plan": "dry_run", "CostPlan": "estimate",
     "EvalResults": "results", "RequestError": "errors", "RunStopped": "errors",
     "ConfigError": "config", "layered_request": "config",
 }

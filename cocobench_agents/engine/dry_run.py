@@ -11,8 +11,6 @@ from cocobench_agents.engine.estimate import CostPlan, estimate
 from cocobench_agents.engine.request import RunRequest
 from cocobench_agents.engine.resolve import canonical, resolve
 
-RunPlan = CostPlan
-
 
 def plan(request: RunRequest, *, resume: bool = False) -> CostPlan:
     """The estimate of `request`'s episodes (with `resume`, of those its run folder has not
