@@ -10,9 +10,7 @@ suites, files and folders.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from cocobench_agents.lazy import lazy_getattr
 from cocobench_agents.version import __version__
 
 _EXPORTS = {
@@ -33,9 +31,4 @@ _EXPORTS = {
 }
 __all__ = ["__version__", *sorted(_EXPORTS)]
 
-
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(module), name)
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

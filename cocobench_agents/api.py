@@ -9,8 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
-
+from cocobench_agents.engine.config import layered_request
 from cocobench_agents.engine.errors import is_user_error
 from cocobench_agents.engine.request import RunRequest, leaf_paths, nest
 from cocobench_agents.engine.results import EvalResults
@@ -57,8 +56,6 @@ def evaluate(source: str | Path | Sequence[str | Path] | None = None, *,
         request = request_of(source, models=models, out=out, conditions=conditions,
                              planners=planners, prompt_suites=prompt_suites, **run_options)
         results = run(request, **call)
-    except ValidationError as exc:
-        raise EvaluationError(_validation_lines(exc)) from exc
     except Exception as exc:
         if not is_user_error(exc):
             raise
@@ -99,12 +96,7 @@ def request_of(source: Any = None, *, models: Any, out: Any, conditions: Any = "
             raise TypeError(f"evaluate() has no option {name!r} (see `cocobench run --help` "
                             "and cocobench_agents.RunRequest)")
         given[name] = value
-    return RunRequest.model_validate(nest(given))
-
-
-def _validation_lines(exc: ValidationError) -> str:
-    return "\n".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}"
-                     for e in exc.errors(include_url=False))
+    return layered_request(nest(given))  # a bad value: `ConfigError`, one line per problem
 
 
 def score(trajectory: str | Path) -> Any:

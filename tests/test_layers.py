@@ -51,7 +51,7 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("graphs",),  # planners never import the harness or the runner
         ("tools",),
         ("models", "prompts"),  # never import the graphs
-        ("setting_kinds", "version"),
+        ("setting_kinds", "version", "lazy"),
     ),
 }
 #: Units made of several modules of a subpackage.

@@ -7,21 +7,15 @@ planners, LangGraph or LiteLLM.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from cocobench_agents.lazy import lazy_getattr
 
 _EXPORTS = {
-    "RunRequest": "request", "TaskSelection": "request", "ExecutionSettings": "request",
-    "Limits": "request",
-    "run": "run", "run_async": "run", "plan": "dry_run", "CostPlan": "estimate",
-    "EvalResults": "results", "RequestError": "errors", "RunStopped": "errors",
-    "ConfigError": "config", "layered_request": "config",
+    "RunRequest": ".request", "TaskSelection": ".request", "ExecutionSettings": ".request",
+    "Limits": ".request",
+    "run": ".run", "run_async": ".run", "plan": ".dry_run", "CostPlan": ".estimate",
+    "EvalResults": ".results", "RequestError": ".errors", "RunStopped": ".errors",
+    "ConfigError": ".config", "layered_request": ".config",
 }
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

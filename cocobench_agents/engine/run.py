@@ -76,7 +76,9 @@ def run(request: RunRequest, *, resume: bool = False, retry_errors: bool = False
             resolved.episodes, folder, retry_errors=retry_errors)
         pool = ModelPool(request.model_settings, desk=_logged_desk(desk, request, todo, folder))
         if todo:  # a finished run is only summarised: no model stack to load, no key to need
-            _check_models(pool, resolved)
+            if record is not None:  # a new run's names were checked before it resolved
+                _check_model_names(request)
+            _check_planners_and_endpoints(pool, resolved)
         if record is None:
             folder.create(run_record(resolved))
         total = len(resolved.episodes)
@@ -153,21 +155,18 @@ def _check_model_names(request: RunRequest) -> None:
             pool.validate(model)
 
 
-def _check_models(pool: ModelPool, resolved: ResolvedRun) -> None:
-    """Unknown models, missing API keys, user planners (one demo episode each) and, unless
-    the request says not to, one pre-flight call per remote model and input kind."""
+def _check_planners_and_endpoints(pool: ModelPool, resolved: ResolvedRun) -> None:
+    """User planners (one demo episode each) and, unless the request says not to, one
+    pre-flight call per remote model and input kind."""
     from cocobench_agents.harness.planner_check import check_planners
 
     request = resolved.request
-    models = [*resolved.models, *request.agent_models.values()]
-    for model in models:
-        if model != "oracle":
-            pool.validate(model)
     check_planners(c.planner for c in resolved.conditions)
     if request.preflight:
         from cocobench_agents.models.preflight import preflight
 
-        preflight(pool, models, resolved.remote_model_modes)
+        preflight(pool, [*resolved.models, *request.agent_models.values()],
+                  resolved.remote_model_modes)
 
 
 def _execute(todo: list, folder: RunFolder, pool: ModelPool, request: RunRequest,

@@ -8,8 +8,7 @@ must not import LangGraph; building a graph does.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from cocobench_agents.lazy import lazy_getattr
 
 _EXPORTS = {
     # the registry, and planners from the researcher's code
@@ -26,9 +25,4 @@ _EXPORTS = {
 }
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(module, __name__), name)
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

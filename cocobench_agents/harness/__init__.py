@@ -6,24 +6,18 @@ planners and LangGraph.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from cocobench_agents.lazy import lazy_getattr
 
 _EXPORTS = {
-    "execute": "batch", "execute_and_close": "batch", "infra_error_record": "batch",
-    "run_one": "batch",
-    "Condition": "plan", "EpisodeKey": "store", "PlanError": "plan", "PlannedEpisode": "plan",
-    "RunOptions": "plan", "parse_conditions": "plan", "plan_episodes": "plan",
-    "pending_episodes": "pending",
-    "RunFolder": "store", "RunFolderError": "store",
-    "WorkerError": "workers", "available_cores": "workers", "execute_in_workers": "workers",
-    "RayOptions": "ray_executor", "execute_on_ray": "ray_executor",
+    "execute": ".batch", "execute_and_close": ".batch", "infra_error_record": ".batch",
+    "run_one": ".batch",
+    "Condition": ".plan", "EpisodeKey": ".store", "PlanError": ".plan", "PlannedEpisode": ".plan",
+    "RunOptions": ".plan", "parse_conditions": ".plan", "plan_episodes": ".plan",
+    "pending_episodes": ".pending",
+    "RunFolder": ".store", "RunFolderError": ".store",
+    "WorkerError": ".workers", "available_cores": ".workers", "execute_in_workers": ".workers",
+    "RayOptions": ".ray_executor", "execute_on_ray": ".ray_executor",
 }
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

@@ -144,7 +144,7 @@ class RunFolder:
         record = self.run_record()
         if not isinstance(record.get("plan"), dict):
             raise RunFolderError(f"{self.path / RUN_FILE}: not a run record (no plan)")
-        cut = self._drop_torn_tail()
+        cut = len(cut_torn_tail(self.results_path)[1])
         if cut:
             self.warnings.append(f"{self.results_path}: removed an incomplete last line "
                                  f"({cut} bytes, from a run stopped in mid-write)")
@@ -222,16 +222,8 @@ class RunFolder:
         """The whole JSON-object lines of the file at `relative` (none if it is absent),
         after cutting off a torn last line (a kill in mid-write) so that the next
         `append_line` starts a line of its own."""
-        path = self.inside(relative)
-        try:
-            data = path.read_bytes()
-        except FileNotFoundError:
-            return []
-        end = data.rfind(b"\n") + 1
-        if end != len(data):
-            with open(path, "r+b") as f:
-                f.truncate(end)
-        return [line for line in (_json_object(raw) for raw in data[:end].splitlines())
+        whole, _ = cut_torn_tail(self.inside(relative))
+        return [line for line in (_json_object(raw) for raw in whole.splitlines())
                 if line is not None]
 
     def results(self) -> Iterator[dict[str, Any]]:
@@ -293,16 +285,20 @@ class RunFolder:
                 scan.problems.append(f"{self.path / relative}: missing; episode {_name(key)} "
                                      "counts as not done")
 
-    def _drop_torn_tail(self) -> int:
-        """Cut an incomplete last line off; how many bytes were cut."""
-        if not self.results_path.exists():
-            return 0
-        data = self.results_path.read_bytes()
-        end = data.rfind(b"\n") + 1
-        if end != len(data):
-            with open(self.results_path, "r+b") as f:
-                f.truncate(end)
-        return len(data) - end
+
+
+def cut_torn_tail(path: Path) -> tuple[bytes, bytes]:
+    """Cut an incomplete last line (a kill in mid-write) off the file at `path`; its whole
+    lines and what was cut (both empty when it is absent)."""
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return b"", b""
+    end = data.rfind(b"\n") + 1
+    if end != len(data):
+        with open(path, "r+b") as f:
+            f.truncate(end)
+    return data[:end], data[end:]
 
 
 def append_json_line(path: Path, record: dict[str, Any]) -> None:

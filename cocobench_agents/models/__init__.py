@@ -9,56 +9,50 @@ Names load on first use (PEP 562): a module that needs one name (the run request
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from cocobench_agents.lazy import lazy_getattr
 
 _EXPORTS = {
-    "BUILTIN_MODELS": "builtin",
-    "GREEDY_SKILL_ORDER": "builtin",
-    "GreedyClient": "builtin",
-    "RandomClient": "builtin",
-    "Script": "builtin",
-    "ScriptedClient": "builtin",
-    "greedy_choice": "builtin",
-    "is_builtin": "builtin",
-    "split_spec": "builtin",
-    "ResponseCache": "cache",
-    "cache_key": "cache",
-    "ModelConfigError": "errors",
-    "menu_grammar": "grammar",
-    "wants_message": "grammar",
-    "LiteLLMClient": "litellm_client",
-    "import_litellm": "litellm_client",
-    "build_messages": "messages",
-    "cap_reply": "messages",
-    "image_data_url": "messages",
-    "OpenAIHTTPClient": "openai_http",
-    "MenuOption": "protocol",
-    "ModelClient": "protocol",
-    "ModelError": "protocol",
-    "ModelReply": "protocol",
-    "ModelRequest": "protocol",
-    "ModelPool": "registry",
-    "Completion": "remote",
-    "RemoteClient": "remote",
-    "ReplayClient": "replay",
-    "ReplaySource": "replay",
-    "recorded_replies": "replay",
-    "RetryPolicy": "retry",
-    "REDACTED": "secrets",
-    "redact": "secrets",
-    "redact_obj": "secrets",
-    "LOCAL_PLACEHOLDER_KEY": "settings",
-    "ModelSettings": "settings",
-    "TEMPERATURE_AUTO": "settings",
-    "TRANSPORTS": "settings",
-    "is_local_url": "settings",
+    "BUILTIN_MODELS": ".builtin",
+    "GREEDY_SKILL_ORDER": ".builtin",
+    "GreedyClient": ".builtin",
+    "RandomClient": ".builtin",
+    "Script": ".builtin",
+    "ScriptedClient": ".builtin",
+    "greedy_choice": ".builtin",
+    "is_builtin": ".builtin",
+    "split_spec": ".builtin",
+    "ResponseCache": ".cache",
+    "cache_key": ".cache",
+    "ModelConfigError": ".errors",
+    "menu_grammar": ".grammar",
+    "wants_message": ".grammar",
+    "LiteLLMClient": ".litellm_client",
+    "import_litellm": ".litellm_client",
+    "build_messages": ".messages",
+    "cap_reply": ".messages",
+    "image_data_url": ".messages",
+    "OpenAIHTTPClient": ".openai_http",
+    "MenuOption": ".protocol",
+    "ModelClient": ".protocol",
+    "ModelError": ".protocol",
+    "ModelReply": ".protocol",
+    "ModelRequest": ".protocol",
+    "ModelPool": ".registry",
+    "Completion": ".remote",
+    "RemoteClient": ".remote",
+    "ReplayClient": ".replay",
+    "ReplaySource": ".replay",
+    "recorded_replies": ".replay",
+    "RetryPolicy": ".retry",
+    "REDACTED": ".secrets",
+    "redact": ".secrets",
+    "redact_obj": ".secrets",
+    "LOCAL_PLACEHOLDER_KEY": ".settings",
+    "ModelSettings": ".settings",
+    "TEMPERATURE_AUTO": ".settings",
+    "TRANSPORTS": ".settings",
+    "is_local_url": ".settings",
 }
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

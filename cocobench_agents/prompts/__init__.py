@@ -5,34 +5,28 @@ Names load on first use (PEP 562): the run request needs only `DEFAULT_SUITE`.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from cocobench_agents.lazy import lazy_getattr
 
 _EXPORTS = {
-    "TEMPLATE_FIELDS": "fields",
-    "coordination_hint": "hints",
-    "ParsedReply": "parse",
-    "parse_message": "parse",
-    "parse_reply": "parse",
-    "PromptInputs": "render",
-    "history_line": "render",
-    "render_centralized": "render",
-    "render_distributed": "render",
-    "render_leader": "render",
-    "DEFAULT_SUITE": "suite",
-    "PromptSuite": "suite",
-    "PromptSuiteError": "suite",
-    "VARIANTS": "suite",
-    "available_suites": "suite",
-    "check_unchanged": "suite",
-    "load_prompt_suite": "suite",
-    "shipped_suite_files": "suite",
+    "TEMPLATE_FIELDS": ".fields",
+    "coordination_hint": ".hints",
+    "ParsedReply": ".parse",
+    "parse_message": ".parse",
+    "parse_reply": ".parse",
+    "PromptInputs": ".render",
+    "history_line": ".render",
+    "render_centralized": ".render",
+    "render_distributed": ".render",
+    "render_leader": ".render",
+    "DEFAULT_SUITE": ".suite",
+    "PromptSuite": ".suite",
+    "PromptSuiteError": ".suite",
+    "VARIANTS": ".suite",
+    "available_suites": ".suite",
+    "check_unchanged": ".suite",
+    "load_prompt_suite": ".suite",
+    "shipped_suite_files": ".suite",
 }
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

@@ -20,6 +20,8 @@ RUN_OPTIONS = ("backend", "max_steps", "stable_ids", "agent_models")
 #: its replies); built-in models ignore them.
 MODEL_SETTINGS = ("api_base", "transport", "temperature", "max_tokens", "grammar", "seed",
                   "extra_params", "max_reply_chars")
+#: Models no remote setting shapes: `models.BUILTIN_MODELS` and the oracle, named here because
+#: reports read run folders only (tests/test_layers.py), not the model stack.
 _BUILTINS = ("greedy", "random", "scripted", "replay", "human", "oracle")
 
 

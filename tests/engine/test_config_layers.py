@@ -127,3 +127,15 @@ def test_resume_takes_the_recorded_request_under_the_new_flags(tmp_path, capsys)
     err = capsys.readouterr().err
     assert ("--resume: model_settings.temperature (--temperature) 0.2 differs from the "
             'recorded run ("auto")') in err
+
+
+def test_a_missing_or_unreadable_config_file_is_exit_2(tmp_path, capsys):
+    out = tmp_path / "run"
+    missing = tmp_path / "nope.yaml"
+    assert main([*RUN, "--out", str(out), "--config", str(missing)]) == 2
+    assert f"{missing}: no such config file" in capsys.readouterr().err
+    binary = tmp_path / "sweep.yaml"
+    binary.write_bytes(b"\xff\xfe\x00models")
+    assert main([*RUN, "--out", str(out), "--config", str(binary)]) == 2
+    assert f"{binary}: not UTF-8 text" in capsys.readouterr().err
+    assert not out.exists()
