@@ -15,11 +15,12 @@ from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.tasks.checks import MAX_STEP_BUDGET
 from cocobench_agents.graphs import PlannerContext, compiled_graph, planner_spec
-from cocobench_agents.models.human import HUMAN
+from cocobench_agents.graphs.node_errors import NodeFailure, PlannerNodeError, node_failure
+from cocobench_agents.models.human import HUMAN, HumanTurn
 from cocobench_agents.models.protocol import ModelClient
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
-from cocobench_agents.tools import EpisodeTools
+from cocobench_agents.tools import EpisodeTools, stop_decision
 
 DEFAULT_MODEL_KEY = "*"
 
@@ -110,7 +111,9 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
                       on_step: Callable[[dict[str, Any]], None] | None = None,
                       ) -> tuple[dict[str, Any], EpisodeResult]:
     """Run one episode to its end; write its trajectory when a path is given. `on_step` is
-    called with each landed step's trajectory item."""
+    called with each landed step's trajectory item. A planner node that raises ends the
+    episode with `PlannerNodeError`, which names the node, file, line and last frames and
+    carries the trajectory up to there (written to the path too)."""
     planner = planner_spec(spec.planner)
     episode = Episode(spec.config, controller)
     tools = EpisodeTools(episode, load_prompt_suite(spec.prompt_suite), obs_mode=spec.obs_mode,
@@ -126,9 +129,28 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
     steps = spec.budget
     try:
         await _invoke(spec, context, steps)
+    except HumanTurn:  # not a failure: a person's turn pauses the episode
+        raise
+    except Exception as exc:
+        failure = node_failure(exc)
+        if failure is None:  # not a node's doing (the simulator, LangGraph's limit)
+            raise
+        raise PlannerNodeError(failure, _stopped(tools, failure, spec, trajectory_path)
+                               ) from exc
     finally:
         pool.release(spec.episode)
     return tools.finish(trajectory_path, **spec.identifiers())
+
+
+def _stopped(tools: EpisodeTools, failure: NodeFailure, spec: EpisodeSpec,
+             path: str | Path | None) -> dict[str, Any]:
+    """The trajectory of an episode a node's exception ended: up to that point, then a stop
+    decision that says which node raised what, where."""
+    stop = stop_decision(policy="harness", model=None, agent=None,
+                         step_index=tools.step_index, status="planner_error")
+    tools.stop({**stop, **failure.record()})
+    document, _ = tools.finish(path, **spec.identifiers())
+    return document
 
 
 def run_retry_policy(pool: ClientFactory) -> RetryPolicy:

@@ -1,7 +1,102 @@
-"""Settings for the whole test session."""
+"""Settings for the whole test session, and the one place that says which optional piece
+(extra) each test needs.
 
+A test that needs an extra carries its marker (`needs_ray`, `needs_thor`, `needs_browser`,
+`needs_langgraph_cli`, `llm`); where that piece is missing, the test is skipped with the
+reason and the command that installs it. Nothing else in the tests skips on a missing extra.
+`--fail-on-skip` turns any skip into a failed session (CI's run with every extra installed).
+"""
+
+from __future__ import annotations
+
+import importlib.util
 import os
+import signal
+import sysconfig
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from tests.models.llama_server import missing_reason as llm_missing
+from tests.viewer.browser import why_unavailable as browser_missing
 
 # A local Ray binds to the machine's network address by default; tests keep all their traffic
 # on loopback (Ray reads this when it is first imported, and its processes inherit it).
 os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+
+# A shell that starts the tests in the background (`pytest &`, nohup, a CI runner without job
+# control) starts them with Ctrl-C (SIGINT) ignored, and an ignored signal stays ignored in
+# every process they start: a run a test interrupts would never hear it. Ctrl-C is restored
+# to its default, as at a terminal.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+@dataclass(frozen=True)
+class Extra:
+    """An optional piece some tests need: its marker, and why it is missing here (or None)."""
+
+    marker: str  # registered, with what it means, in pyproject.toml
+    missing: Callable[[], str | None]
+
+
+def module_missing(module: str, install: str) -> Callable[[], str | None]:
+    """A check that `module` is importable; the reason names the command that installs it."""
+    def missing() -> str | None:
+        if importlib.util.find_spec(module) is None:
+            return f"{module} is not installed ({install})"
+        return None
+
+    return missing
+
+
+#: LangGraph's dev server as installed beside this Python (not any on PATH: it must import
+#: this environment's project).
+LANGGRAPH_CLI = Path(sysconfig.get_path("scripts")) / "langgraph"
+
+
+def langgraph_cli_missing() -> str | None:
+    """Why `langgraph dev` cannot be started here (None when it can)."""
+    if not LANGGRAPH_CLI.is_file():
+        return "langgraph-cli is not installed (pip install 'langgraph-cli[inmem]>=0.4,<0.5')"
+    return module_missing("langgraph_sdk", "pip install langgraph-sdk")()
+
+
+EXTRAS = (
+    Extra("needs_ray", module_missing("ray", "pip install -e '.[ray]'")),
+    Extra("needs_thor", module_missing("ai2thor", "pip install -e '.[thor]'")),
+    Extra("needs_browser", browser_missing),
+    Extra("needs_langgraph_cli", langgraph_cli_missing),
+    Extra("llm", llm_missing),
+)
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--fail-on-skip", action="store_true",
+                     help="fail the session if any test was skipped (every extra installed)")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Skip each test whose extra is missing, with the reason; each extra is checked once."""
+    reasons: dict[str, str | None] = {}
+    for item in items:
+        for extra in EXTRAS:
+            if item.get_closest_marker(extra.marker) is None:
+                continue
+            if extra.marker not in reasons:
+                reasons[extra.marker] = extra.missing()
+            if reasons[extra.marker] is not None:
+                item.add_marker(pytest.mark.skip(reason=reasons[extra.marker]))
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """Under `--fail-on-skip`, a skipped test fails the session (exit 1)."""
+    if not session.config.getoption("fail_on_skip"):
+        return
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    skipped = reporter.stats.get("skipped", []) if reporter else []
+    if skipped and exitstatus == pytest.ExitCode.OK:
+        reporter.write_line(f"--fail-on-skip: {len(skipped)} tests skipped (see -rs)", red=True)
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED

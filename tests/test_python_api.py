@@ -1,11 +1,10 @@
-"""The Python API: `evaluate` runs what `cocobench run` runs; docs/python-api.md's example
-runs as written."""
+"""The Python API: `evaluate` runs what `cocobench run` runs (docs/python-api.md's examples
+run as written in tests/test_docs.py)."""
 
 from __future__ import annotations
 
 import asyncio
 import json
-import re
 import warnings
 from pathlib import Path
 
@@ -13,19 +12,6 @@ import pytest
 
 import cocobench_agents as cb
 from cocobench_agents.cli import main
-
-DOC = Path(__file__).resolve().parents[1] / "docs" / "python-api.md"
-
-
-def test_the_documented_example_runs(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    blocks = re.findall(r"```python\n(.*?)```", DOC.read_text(), re.S)
-    assert len(blocks) >= 3
-    namespace: dict = {}
-    for block in blocks:
-        exec(compile(block, str(DOC), "exec"), namespace)  # our own doc
-    assert len(namespace["results"]) == 8
-    assert (tmp_path / "runs" / "api-demo" / "report").is_dir()
 
 
 def test_evaluate_equals_the_command(tmp_path):

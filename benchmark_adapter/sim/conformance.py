@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import graphlib
 import json
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -56,13 +57,16 @@ def check_controller(make: Callable[[], Controller]) -> None:
 
 def _exercise(ctl: Controller) -> list[str]:
     """Run the contract's calls; return a canonical trace of the metadata seen."""
-    trace = [_canon(_check_metadata(ctl.reset(), ctl.agent_count))]
+    trace = [_canon(_check_containment("reset", _check_metadata(ctl.reset(), ctl.agent_count)))]
     trace.append(_canon(_check_unknown_action(ctl)))
     trace.append(_canon(_check_pass(ctl)))
     trace.append(_canon(_check_navigation(ctl)))
     pickupable = _first(ctl, "pickupable")
     if pickupable is not None and ctl.agent_count >= 2:
         trace.append(_canon(_check_one_holder(ctl, pickupable)))
+    nesting = _check_nothing_inside_itself(ctl)
+    if nesting is not None:
+        trace.append(_canon(nesting))
     _check_frame(ctl)
     return trace
 
@@ -84,14 +88,14 @@ def _check_metadata(metadata: Sequence[Metadata], agent_count: int) -> Sequence[
 
 
 def _check_unknown_action(ctl: Controller) -> Sequence[Metadata]:
-    md = ctl.step("NoSuchAction", agentId=0)
+    md = _step(ctl, "NoSuchAction", agentId=0)
     _expect(md[0]["lastActionSuccess"] is False, "an unknown action must fail, not succeed")
     _expect(bool(md[0]["errorMessage"]), "a failed action must carry an errorMessage")
     return md
 
 
 def _check_pass(ctl: Controller) -> Sequence[Metadata]:
-    md = _check_metadata(ctl.step("Pass", agentId=ctl.agent_count - 1), ctl.agent_count)
+    md = _check_metadata(_step(ctl, "Pass", agentId=ctl.agent_count - 1), ctl.agent_count)
     _expect(md[-1]["lastActionSuccess"] is True, "Pass must succeed")
     return md
 
@@ -99,12 +103,12 @@ def _check_pass(ctl: Controller) -> Sequence[Metadata]:
 def _check_navigation(ctl: Controller) -> Sequence[Metadata]:
     target = _first(ctl, "receptacle") or _first(ctl, "pickupable")
     _expect(target is not None, "the scene has no receptacle or pickupable object")
-    md = ctl.step("GetInteractablePoses", agentId=0, objectId=target)
+    md = _step(ctl, "GetInteractablePoses", agentId=0, objectId=target)
     poses = md[0]["actionReturn"]
     _expect(isinstance(poses, list) and poses, f"GetInteractablePoses({target}) gave no poses")
     reached = False
     for pose in poses:
-        md = ctl.step("TeleportFull", agentId=0, **pose)
+        md = _step(ctl, "TeleportFull", agentId=0, **pose)
         if md[0]["lastActionSuccess"]:
             seen = [o for o in md[0]["objects"] if o["objectId"] == target]
             _expect(seen and seen[0]["visible"],
@@ -112,8 +116,8 @@ def _check_navigation(ctl: Controller) -> Sequence[Metadata]:
             reached = True
             break
     _expect(reached, f"no interactable pose of {target} could be reached with TeleportFull")
-    md = ctl.step(
-        "TeleportFull", agentId=0, x=1e6, y=0.9, z=1e6, rotation=0, horizon=0, standing=True
+    md = _step(
+        ctl, "TeleportFull", agentId=0, x=1e6, y=0.9, z=1e6, rotation=0, horizon=0, standing=True
     )
     _expect(md[0]["lastActionSuccess"] is False, "teleporting off the floor must fail")
     return md
@@ -122,8 +126,8 @@ def _check_navigation(ctl: Controller) -> Sequence[Metadata]:
 def _check_one_holder(ctl: Controller, object_id: str) -> Sequence[Metadata]:
     for agent in range(ctl.agent_count):
         if ctl.last_metadata()[agent]["inventoryObjects"]:
-            ctl.step("DropHandObject", agentId=agent, forceAction=True)
-    md = ctl.step("PickupObject", agentId=0, objectId=object_id, forceAction=True)
+            _step(ctl, "DropHandObject", agentId=agent, forceAction=True)
+    md = _step(ctl, "PickupObject", agentId=0, objectId=object_id, forceAction=True)
     _expect(
         md[0]["lastActionSuccess"],
         f"forced PickupObject({object_id}) failed: {md[0]['errorMessage']}",
@@ -132,9 +136,82 @@ def _check_one_holder(ctl: Controller, object_id: str) -> Sequence[Metadata]:
         [o["objectId"] for o in md[0]["inventoryObjects"]] == [object_id],
         "a picked-up object must be in the agent's inventoryObjects",
     )
-    md = ctl.step("PickupObject", agentId=1, objectId=object_id, forceAction=True)
+    md = _step(ctl, "PickupObject", agentId=1, objectId=object_id, forceAction=True)
     _expect(not md[1]["lastActionSuccess"], "an object must have at most one holder")
     return md
+
+
+def _step(ctl: Controller, action: str, **kwargs: Any) -> Sequence[Metadata]:
+    """`ctl.step`, then the containment invariant on the metadata it returned."""
+    return _check_containment(action, ctl.step(action, **kwargs))
+
+
+def _check_containment(action: str, metadata: Sequence[Metadata]) -> Sequence[Metadata]:
+    """No object lies inside itself, directly or through what it contains (AI2-THOR never
+    lets that happen; a walk over such parents never ends). Both `parentReceptacles` and
+    `receptacleObjectIds` count, and may list transitive containers, as AI2-THOR's do."""
+    for md in metadata:
+        try:
+            objects = list(md["objects"])
+        except Exception as exc:  # a backend's metadata that cannot be read is a breach too
+            raise ConformanceError(f"after {action}: reading the objects failed: {exc!r}") from exc
+        inside: dict[str, set[str]] = {}  # receptacle -> what lies in it
+        for obj in objects:
+            oid = obj.get("objectId")
+            for parent in obj.get("parentReceptacles") or []:
+                inside.setdefault(parent, set()).add(oid)
+            for content in obj.get("receptacleObjectIds") or []:
+                inside.setdefault(oid, set()).add(content)
+        cycle = _cycle(inside)
+        _expect(cycle is None,
+                f"after {action}: an object lies inside itself: {' -> '.join(cycle or [])}")
+    return metadata
+
+
+def _cycle(inside: Mapping[str, set[str]]) -> list[str] | None:
+    """A cycle of the containment graph as a closed path (`A -> B -> A`), or None."""
+    try:
+        graphlib.TopologicalSorter(inside).prepare()
+    except graphlib.CycleError as exc:
+        return list(exc.args[1])
+    return None
+
+
+def _check_nothing_inside_itself(ctl: Controller) -> Sequence[Metadata] | None:
+    """Put one portable receptacle into another, pick the outer one up and try to put it
+    into the inner one: the backend must refuse. None when the scene has no two portable
+    receptacles or a setup step fails (a physical backend may find no room)."""
+    portable = [
+        o["objectId"] for o in ctl.last_metadata()[0]["objects"]
+        if o.get("pickupable") and o.get("receptacle")
+    ]
+    if len(portable) < 2:
+        return None
+    inner, outer = portable[:2]
+    for agent in range(ctl.agent_count):
+        if ctl.last_metadata()[agent]["inventoryObjects"]:
+            _step(ctl, "DropHandObject", agentId=agent, forceAction=True)
+    for target in (inner, outer):
+        if _is_closed(ctl, target):
+            _step(ctl, "OpenObject", agentId=0, objectId=target, forceAction=True)
+    setup = (
+        ("PickupObject", {"objectId": inner}),
+        ("PutObject", {"objectId": outer, "placeStationary": True}),
+        ("PickupObject", {"objectId": outer}),
+    )
+    for action, kwargs in setup:
+        if not _step(ctl, action, agentId=0, forceAction=True, **kwargs)[0]["lastActionSuccess"]:
+            return None
+    md = _step(ctl, "PutObject", agentId=0, objectId=inner, forceAction=True,
+               placeStationary=True)
+    _expect(not md[0]["lastActionSuccess"],
+            f"putting {outer} into {inner}, which lies inside it, must fail")
+    return md
+
+
+def _is_closed(ctl: Controller, object_id: str) -> bool:
+    record = next(o for o in ctl.last_metadata()[0]["objects"] if o["objectId"] == object_id)
+    return bool(record.get("openable")) and not record.get("isOpen")
 
 
 def _check_frame(ctl: Controller) -> None:

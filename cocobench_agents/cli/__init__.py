@@ -110,8 +110,10 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         if not is_user_error(exc):
             raise
-        for line in str(exc).splitlines() or [""]:  # one line per problem, each prefixed
-            click.echo(f"cocobench: error: {line}", err=True)
+        # One line per problem, each prefixed; an indented line (a traceback's frame)
+        # continues the problem above it.
+        for line in str(exc).splitlines() or [""]:
+            click.echo(line if line[:1].isspace() else f"cocobench: error: {line}", err=True)
         return USAGE_ERROR
     return code if isinstance(code, int) else 0
 

@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from cocobench_agents.cli.tables import table
+from cocobench_agents.graphs import PlannerError
 from cocobench_agents.graphs.plugins import (
     LoadedPlanner,
     builtin_planners,
@@ -33,23 +34,58 @@ def planner_record(planner: LoadedPlanner) -> dict[str, Any]:
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list instead of a table.")
 @click.option("--check", is_flag=True,
               help="Also run the pre-run check on every planner not built in: it compiles, "
-                   "and one demo episode with the greedy model ends with a terminal reason.")
+                   "and one demo episode with the greedy model ends with a terminal reason. "
+                   "Ends with a passed / FAILED line; exit 1 if any planner fails.")
 def planners_command(refs: tuple[str, ...], as_json: bool, check: bool) -> None:
     """List the built-in planners, those installed packages register (entry point group
     `cocobench.planners`) and any given as FILE.py:NAME or module:NAME. A package whose
     planner fails to load is listed as broken, with the reason."""
     planners = [*builtin_planners(), *installed_planners(), *user_planners(refs)]
-    if check:
-        from cocobench_agents.harness.planner_check import check_planners
-
-        check_planners(p.name for p in planners if p.spec is not None)
+    failures = _check_each(planners) if check else {}
     records = [planner_record(p) for p in planners]
     if as_json:
         click.echo(json.dumps(records, indent=2))
-        return
-    click.echo(table(HEADERS, [_row(r) for r in records]))
-    click.echo("Use one with --planner NAME (or FILE.py:NAME), or in --conditions as "
-               "CODE_image / CODE_blind.")
+    else:
+        click.echo(table(HEADERS, [_row(r) for r in records]))
+        click.echo("Use one with --planner NAME (or FILE.py:NAME), or in --conditions as "
+                   "CODE_image / CODE_blind.")
+    if check:
+        checked = [p.name for p in planners if p.origin.kind != "built-in"]
+        for problem in failures.values():
+            click.echo(f"cocobench: check failed: {problem}", err=True)
+        # The verdict is the last line; beside JSON on stdout it goes to stderr.
+        click.echo(_verdict(checked, failures), err=as_json)
+        if failures:
+            raise click.exceptions.Exit(1)
+
+
+def _check_each(planners: list[LoadedPlanner]) -> dict[str, str]:
+    """Run the pre-run check on every planner not built in; the ones that fail (a broken
+    package included), each with why."""
+    from cocobench_agents.harness.planner_check import check_planners
+
+    failures = {}
+    for planner in planners:
+        if planner.origin.kind == "built-in":
+            continue
+        if planner.spec is None:
+            failures[planner.name] = planner.error or "it does not load"
+            continue
+        try:
+            check_planners([planner.name])
+        except PlannerError as exc:
+            failures[planner.name] = str(exc)
+    return failures
+
+
+def _verdict(checked: list[str], failures: dict[str, str]) -> str:
+    if failures:
+        return (f"check FAILED: {len(failures)} of {len(checked)} planner(s) not built in: "
+                f"{', '.join(failures)}")
+    if not checked:
+        return "check passed: no planner outside the built-ins to check (they need none)"
+    return (f"check passed: {len(checked)} planner(s) not built in compile and end their "
+            f"greedy demo episode: {', '.join(checked)}")
 
 
 def _row(record: dict[str, Any]) -> list[Any]:

@@ -1,13 +1,15 @@
 """Progress of a run: a live bar on a terminal (rich), plain lines elsewhere (CI, files).
 
 Both show done/total, success so far, errors, tokens, cost and the time left; every finished
-episode also gets one line.
+episode also gets one line. A resumed run counts every episode of the run: those recorded
+before it resumed as well as those it runs now.
 """
 
 from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Iterable
 from typing import Any, TextIO
 
 from rich.console import Console
@@ -22,31 +24,27 @@ PLAIN_STATUS_EVERY_S = 30.0
 
 
 class Progress:
-    """Counts finished episodes and reports them."""
+    """Counts finished episodes and reports them; `recorded` are the result lines of the
+    episodes already done (a resumed run), counted in every total."""
 
-    def __init__(self, total: int, *, already_done: int = 0, stream: TextIO | None = None,
-                 live: bool | None = None) -> None:
+    def __init__(self, total: int, *, recorded: Iterable[dict[str, Any]] = (),
+                 stream: TextIO | None = None, live: bool | None = None) -> None:
         self.stream = stream or sys.stderr
         self.live = self.stream.isatty() if live is None else live
-        self.total, self.done = total, already_done
-        self.ran = self.successes = self.errors = 0
+        self.total = total
+        self.done = self.successes = self.errors = 0
         self.tokens, self.cost = 0, 0.0
+        for record in recorded:
+            self._count(record)
         self._last_status = time.monotonic()
         # Off a terminal the bar is not drawn; it still keeps the rate that estimates the ETA.
-        self._bar = _bar(self.stream, total, already_done)
+        self._bar = _bar(self.stream, total, self.done, self.status_fields())
         if self.live:
             self._bar.start()
 
     def episode_done(self, record: dict[str, Any]) -> None:
         """Account for one result line and show it."""
-        self.done += 1
-        self.ran += 1
-        self.successes += int(record.get("task_success") or 0)
-        self.errors += is_infra_failure(record)
-        usage = record.get("usage") or {}
-        self.tokens += int(usage.get("prompt_tokens") or 0) + int(
-            usage.get("completion_tokens") or 0)
-        self.cost += float(usage.get("cost_usd") or 0.0)
+        self._count(record)
         line = f"[{self.done}/{self.total}] {episode_line(record)}"
         self._bar.update(self._task, completed=self.done, status=self.status_fields())
         if self.live:
@@ -57,17 +55,27 @@ class Progress:
                 self._last_status = time.monotonic()
                 print(self.status_text(), file=self.stream, flush=True)
 
+    def _count(self, record: dict[str, Any]) -> None:
+        self.done += 1
+        self.successes += int(record.get("task_success") or 0)
+        self.errors += is_infra_failure(record)
+        usage = record.get("usage") or {}
+        self.tokens += int(usage.get("prompt_tokens") or 0) + int(
+            usage.get("completion_tokens") or 0)
+        self.cost += float(usage.get("cost_usd") or 0.0)
+
     def close(self) -> None:
         """End the live bar; off a terminal, print the final status."""
         if self.live:
             self._bar.stop()
-        elif self.ran:
+        elif self.done:
             print(self.status_text(), file=self.stream, flush=True)
 
     def status_fields(self) -> str:
-        """Success so far, errors, tokens, cost."""
-        rate = f"{100 * self.successes / self.ran:.1f}%" if self.ran else "-"
-        return (f"SR {rate} ({self.successes}/{self.ran}) | errors {self.errors} | "
+        """Success so far, errors, tokens, cost: of every episode done, in this process or
+        before a resume."""
+        rate = f"{100 * self.successes / self.done:.1f}%" if self.done else "-"
+        return (f"SR {rate} ({self.successes}/{self.done}) | errors {self.errors} | "
                 f"{self.tokens:,} tokens | ${self.cost:.4f}")
 
     def status_text(self) -> str:
@@ -81,12 +89,12 @@ class Progress:
         return self._bar.task_ids[0]
 
 
-def _bar(stream: TextIO, total: int, done: int) -> RichProgress:
+def _bar(stream: TextIO, total: int, done: int, status: str) -> RichProgress:
     bar = RichProgress(
         MofNCompleteColumn(), BarColumn(), TextColumn("{task.fields[status]}"),
         TextColumn("ETA"), TimeRemainingColumn(),
         console=Console(file=stream), transient=False, refresh_per_second=4)
-    bar.add_task("episodes", total=total, completed=done, status="SR - | errors 0")
+    bar.add_task("episodes", total=total, completed=done, status=status)
     return bar
 
 
@@ -97,7 +105,9 @@ def episode_line(record: dict[str, Any]) -> str:
     if record.get("epoch"):
         head += f" e{record['epoch']}"
     if record.get("infra_error"):
-        return f"{head}: ERROR {record['infra_error'][:160]}"
+        # A planner node's error is followed by its traceback's last frames: kept whole.
+        first, _, frames = record["infra_error"].partition("\n")
+        return f"{head}: ERROR {first[:160]}" + (f"\n{frames}" if frames else "")
     construct = record.get("construct_score")
     construct_text = f"{construct:.2f}" if construct is not None else record.get(
         "construct_status")
@@ -134,7 +144,7 @@ class RunView:
             print(f"{event.total} episodes ({event.done} already done) → {event.folder}",
                   file=self.stream, flush=True)
             if event.done < event.total:
-                self.progress = Progress(event.total, already_done=event.done,
+                self.progress = Progress(event.total, recorded=event.recorded,
                                          stream=self.stream)
         elif isinstance(event, events.EpisodeRecorded) and self.progress is not None:
             self.progress.episode_done(event.record)

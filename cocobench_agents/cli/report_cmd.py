@@ -48,7 +48,8 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
         click.echo(f"warning: {warning}", err=True)
     for path in summary.files:
         click.echo(str(path))
-    click.echo(f"{summary.episodes} episodes, {len(summary.models)} model(s), "
+    arms = f"{len(summary.arms)} arm(s), " if summary.arms else ""
+    click.echo(f"{summary.episodes} episodes, {len(summary.models)} model(s), {arms}"
                f"{len(summary.conditions)} condition(s) -> {target / 'index.md'}", err=True)
     if summary.plot_note and not summary.plots:
         click.echo(f"note: {summary.plot_note}", err=True)

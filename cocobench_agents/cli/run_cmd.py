@@ -22,12 +22,7 @@ from cocobench_agents.engine.config import layered_request, read_config_file
 from cocobench_agents.engine.errors import RunInterrupted, RunStopped
 from cocobench_agents.engine.request import RunRequest, nest
 from cocobench_agents.harness.infra import retry_command
-
-LEGEND = (
-    "SR: task success rate. CS: mean construct score of the scored episodes (n), CS_D1..D4 "
-    "per dimension; unscored episodes are not_engaged (no evidence of the construct), "
-    "low_signal (too little evidence) or na_no_actions (no step taken). legal: plans with no "
-    "illegal step. errors: episodes the model's infrastructure or the harness ended.")
+from cocobench_agents.harness.runaway import runaway_causes
 
 
 @click.command("run", epilog=(
@@ -82,14 +77,14 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
                           desk=page.desk if page else None)
         except RunStopped as stopped:
             view.close()
-            _summary(stopped.folder)
+            _summary(stopped.folder, request)
             raise RunEndedEarly(stopped) from None
     view.close()
-    _summary(results.folder)
+    _summary(results.folder, request)
     if results.stopped is not None:
         raise SpendLimitReached(results.stopped)
     if results.errors:
-        raise RunHadErrors(results.folder, results.errors)
+        raise RunHadErrors(results.folder, results.errors, runaway_causes(results))
 
 
 def _request(options: dict[str, Any], config_file: Path | None, resume: bool) -> RunRequest:
@@ -153,21 +148,31 @@ class RunHadErrors(click.ClickException):
 
     exit_code = 1
 
-    def __init__(self, folder: Path, failed: int) -> None:
+    def __init__(self, folder: Path, failed: int, runaways: dict[str, int]) -> None:
+        stopped = ""
+        if runaways:
+            causes = ", ".join(f"{count} {cause}" for cause, count in sorted(runaways.items()))
+            stopped = (f"; stopped as runaways: {causes} (raise --episode-memory or "
+                       "--stall-timeout if they are healthy)")
         super().__init__(
             f"{failed} episode{'s' if failed != 1 else ''} ended on an infrastructure error "
             "(model backend error, timeout, unsupported input, or the harness) and count as "
-            f"failures above; retry them with: {retry_command(folder)}")
+            f"failures above{stopped}; retry them with: {retry_command(folder)}")
 
 
-def _summary(folder: Path) -> None:
+def _summary(folder: Path, request: RunRequest) -> None:
     from cocobench_agents.harness.store import RunFolder
-    from cocobench_agents.harness.summary import node_lines, summary_table
+    from cocobench_agents.harness.summary import LEGEND, node_lines, summary_table
+    from cocobench_agents.models.settings import unset_sampling_notice
 
     run_folder = RunFolder(folder)
     records = list(run_folder.results())
     headers, rows = summary_table(records)
     click.echo(table(headers, rows, caption=LEGEND))
+    sampling = unset_sampling_notice(request.model_settings,
+                                     [*request.models, *request.agent_models.values()])
+    if sampling:
+        click.echo(f"note: {sampling}")
     for line in node_lines(records):  # a Ray run: where its episodes ran
         click.echo(line)
     click.echo(f"results: {run_folder.results_path}  (cocobench report "

@@ -17,7 +17,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import ValidationError
 
 from cocobench_agents.engine.request import RunRequest, iter_fields, leaf_paths
 from cocobench_agents.setting_kinds import flag_of
@@ -181,6 +181,12 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split())
 
 
-def request_as_config(request: BaseModel) -> dict[str, Any]:
-    """The request as a config file holds it: JSON types, every field."""
-    return request.model_dump(mode="json")
+def request_as_config(request: RunRequest) -> dict[str, Any]:
+    """The request as a config file holds it: JSON types, every field but the form of the
+    planner × observation choice the request does not use (`conditions`, or `planners` with
+    `obs_modes`), so that the file says which one runs."""
+    config = request.model_dump(mode="json")
+    unused = ("planners", "obs_modes") if request.conditions else ("conditions",)
+    for name in unused:
+        del config[name]
+    return config

@@ -6,6 +6,10 @@ from __future__ import annotations
 import shlex
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from cocobench_agents.harness.errors import FatalModelError
 
 
 class RequestError(ValueError):
@@ -74,9 +78,10 @@ class ExecutorFailed(RunStopped):
 
 
 class ModelRefused(RunStopped):
-    """The provider refused the key, or knows no such model: every later call would fail the
-    same way, so the run stopped starting episodes (those in flight finished)."""
+    """The provider refused the key, knows no such model or refused the input: every later
+    call would fail the same way, so the run stopped starting episodes (those in flight
+    finished)."""
 
-    def __init__(self, folder: Path, error: Exception) -> None:
-        super().__init__(f"{error}. Fix the key or the model name, then re-run the failed "
-                         f"episodes with: {resume_command(folder, '--retry-errors')}", folder)
+    def __init__(self, folder: Path, error: FatalModelError) -> None:
+        super().__init__(f"{error}. {error.fix}, then re-run the failed episodes with: "
+                         f"{resume_command(folder, '--retry-errors')}", folder)

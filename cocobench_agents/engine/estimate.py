@@ -19,7 +19,8 @@ Definitions (the docs give the reasons):
   else `difficulty.step_budget`): C0 asks once per landed step (B); D0/D1 ask every one of
   the N agents each round, and a round lands at least one step or ends the episode (N × B);
   leader–worker adds the leader's call to every round ((N + 1) × B); the oracle asks none.
-  A planner from the user's code has an unknown loop: N × B is assumed (`CostRow.assumed`).
+  Each planner's `PlannerSpec` declares its loop, prompt and broadcast, which these are read
+  from; one that declares no `loop` is assumed to ask N × B (`CostRow.assumed`).
   Retries are not counted.
 * **cost low** = each seat's first prompt × the calls of a run as short as the oracle's plan
   (its calls for C0, its busiest agent's calls, i.e. rounds, for teams) × input price.
@@ -96,14 +97,31 @@ class CostRow:
     cost_usd: CostRange
     #: Every model the row's calls go to, the team's first (`--agent-model` adds others).
     models: tuple[str, ...] = ()
-    #: max_calls assumes one call per agent per landed step: a planner from the user's code,
-    #: whose loop is unknown (a strategy that asks again within a round can exceed it).
+    #: max_calls assumes one call per agent per landed step: a planner whose spec declares no
+    #: `loop` (a strategy that asks again within a round can exceed it).
     assumed: bool = False
 
     def to_json(self) -> dict[str, Any]:
         return {"model": self.model, "condition": self.condition, "arm": self.arm or None,
                 "episodes": self.episodes, "max_calls": self.max_calls,
                 "prompt_tokens": self.prompt_tokens, "cost_usd": self.cost_usd.to_json()}
+
+
+@dataclass(frozen=True)
+class EpisodeTokens:
+    """One planned episode's first-prompt tokens (0 for the oracle's)."""
+
+    model: str
+    condition: str
+    arm: str  # "" for a run without prompt-suite arms (null in JSON)
+    task_id: str
+    epoch: int
+    prompt_tokens: int  # everything its first decision round sends to models
+
+    def to_json(self) -> dict[str, Any]:
+        return {"model": self.model, "condition": self.condition, "arm": self.arm or None,
+                "task_id": self.task_id, "epoch": self.epoch,
+                "prompt_tokens": self.prompt_tokens}
 
 
 @dataclass(frozen=True)
@@ -132,15 +150,19 @@ class CostPlan:
     #: Whether the low / high total exceeds `max_cost_usd`; None without a limit or a price.
     low_exceeds_max_cost: bool | None = None
     high_exceeds_max_cost: bool | None = None
+    #: Every episode's first-prompt tokens, in plan order (a row's `prompt_tokens` sums them).
+    episodes: tuple[EpisodeTokens, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
-        """The `--dry-run --json` object: rows, total, token counters and the spend limit."""
+        """The `--dry-run --json` object: rows, total, token counters, the spend limit and
+        every episode's first-prompt tokens."""
         limit = None
         if self.max_cost_usd is not None:
             limit = {"limit": self.max_cost_usd, "low_exceeds": self.low_exceeds_max_cost,
                      "high_exceeds": self.high_exceeds_max_cost}
         return {"rows": [row.to_json() for row in self.rows], "total": self.total.to_json(),
-                "token_counters": dict(self.token_counters), "max_cost_usd": limit}
+                "token_counters": dict(self.token_counters), "max_cost_usd": limit,
+                "episodes": [episode.to_json() for episode in self.episodes]}
 
 
 # -- the first decision round ---------------------------------------------------------------
@@ -157,32 +179,25 @@ class FirstRequest:
 
 @dataclass(frozen=True)
 class _Loop:
-    """How a planner asks models, as far as the estimate needs it."""
+    """How a planner asks models, as its `PlannerSpec` declares it (`loop`, `prompt`,
+    `broadcast`)."""
 
-    kind: str  # "team": one team call per step; "round": every agent; "led": leader + round
+    kind: str  # "step": one call per landed step; "round": every agent; "led-round": + leader
+    prompt: str  # "team": the centralized prompt; "agent": each agent's own
     broadcast: bool = False  # agents see the message board (D1, leader–worker)
-    assumed: bool = False  # a user planner: the shape is assumed, not read from its code
-
-
-_BUILT_IN_LOOPS = {
-    "centralized": _Loop("team"),
-    "decentralized": _Loop("round"),
-    "decentralized-broadcast": _Loop("round", broadcast=True),
-    "leader-worker": _Loop("led", broadcast=True),
-}
+    assumed: bool = False  # the spec declares no loop: N calls per landed step are assumed
 
 
 def _loop(planner: str) -> _Loop | None:
-    """The planner's loop; None for one that asks no model (the oracle)."""
+    """The planner's loop, from its spec; None for one that asks no model (the oracle)."""
     spec = planner_spec(planner)
     if not spec.uses_models:
         return None
-    known = _BUILT_IN_LOOPS.get(spec.name)
-    if known is not None:
-        return known
-    # A strategy from the user's code: one model per agent when decentralized (asked as D0
-    # agents are), else the team's model (asked as C0 is), each N times per landed step.
-    return _Loop("round" if spec.decentralized else "team", assumed=True)
+    prompt = spec.prompt_kind
+    # Undeclared (a strategy written before specs declared their loop): the team's model
+    # asked as C0 asks it, or every agent as D0 asks them, each N times per landed step.
+    kind = spec.loop or ("round" if prompt == "agent" else "step")
+    return _Loop(kind, prompt, spec.broadcast, assumed=spec.loop is None)
 
 
 def first_round_requests(spec: EpisodeSpec) -> list[FirstRequest]:
@@ -222,8 +237,8 @@ class _FirstRounds:
         images = spec.obs_mode == "image" and any(_reads_images(m) for m in models)
         # Keyed by the config object: a plan's episodes share one per instance, and all of
         # them are alive while the estimate runs.
-        key = (id(spec.config), loop.kind, loop.broadcast, spec.obs_mode, spec.prompt_suite,
-               spec.stable_ids, images)
+        key = (id(spec.config), loop.kind, loop.prompt, loop.broadcast, spec.obs_mode,
+               spec.prompt_suite, spec.stable_ids, images)
         rendered = self._rendered.get(key)
         if rendered is None:
             rendered = self._rendered[key] = self._render(spec, loop, images)
@@ -264,10 +279,10 @@ class _FirstRounds:
 
 
 def _seat_order(config: TaskConfig, loop: _Loop) -> list[tuple[str, str | None]]:
-    if loop.kind == "team":
-        return [(TEAM, None)]
+    if loop.kind == "step":  # one seat asked per step: the team, or (first) agent_1
+        return [(TEAM, None)] if loop.prompt == "team" else [(AGENT, config.agent_ids[0])]
     agents = [(AGENT, a) for a in config.agent_ids]
-    return [(LEADER, None), *agents] if loop.kind == "led" else agents
+    return [(LEADER, None), *agents] if loop.kind == "led-round" else agents
 
 
 def _reads_images(model: str) -> bool:
@@ -372,16 +387,16 @@ def _oracle_length(config: TaskConfig) -> tuple[int, int]:
     return stats.calls, stats.makespan
 
 
-def _seat_calls(loop: _Loop, role: str, agents: int, budget: int, oracle: tuple[int, int]
+def _seat_calls(loop: _Loop, agents: int, budget: int, oracle: tuple[int, int]
                 ) -> tuple[int, int]:
     """(most, oracle-short) calls of one seat over an episode of step budget `budget`.
 
-    A team seat lands one step per call (C0 asks N per step when the loop is assumed); every
-    other seat is asked once per round, and a round lands at least one step (else it ends
-    the episode), so at most `budget` rounds; a run as short as the oracle's plan takes its
-    calls (team) or its busiest agent's calls (rounds)."""
+    A step loop's seat lands one step per call (N calls per step when the loop is assumed);
+    every seat of a round is asked once per round, and a round lands at least one step (else
+    it ends the episode), so at most `budget` rounds; a run as short as the oracle's plan
+    takes its calls (step) or its busiest agent's calls (rounds)."""
     calls, makespan = oracle
-    if role == TEAM:
+    if loop.kind == "step":
         return budget * (agents if loop.assumed else 1), min(calls, budget)
     return budget, min(makespan, budget)
 
@@ -432,7 +447,8 @@ def estimate(episodes: Sequence[PlannedEpisode], settings: ModelSettings, *,
         token_counters={model: c.description for model, c in tally.counters.items()},
         max_cost_usd=max_cost_usd,
         low_exceeds_max_cost=_exceeds(total.cost_usd.low, max_cost_usd),
-        high_exceeds_max_cost=_exceeds(total.cost_usd.high, max_cost_usd))
+        high_exceeds_max_cost=_exceeds(total.cost_usd.high, max_cost_usd),
+        episodes=tuple(tally.episodes))
 
 
 class _Tally:
@@ -442,12 +458,21 @@ class _Tally:
         self.litellm = litellm
         self.rows: dict[tuple[str, str, str], _RowSum] = {}
         self.counters: dict[str, _TokenCounter] = {}  # by model, in order of first use
+        self.episodes: list[EpisodeTokens] = []  # in plan order
         self._rounds = _FirstRounds()
         self._oracle: dict[int, tuple[int, int]] = {}  # by config object
 
     def add(self, planned: PlannedEpisode) -> None:
-        spec, key = planned.spec, planned.key
+        key = planned.key
         row = self.rows.setdefault((key.model, key.condition, key.arm), _RowSum())
+        before = row.prompt_tokens
+        self._count(planned, row)
+        self.episodes.append(EpisodeTokens(key.model, key.condition, key.arm, key.task_id,
+                                           key.epoch, row.prompt_tokens - before))
+
+    def _count(self, planned: PlannedEpisode, row: _RowSum) -> None:
+        """Add the episode's calls, first-prompt tokens and cost shares to its row."""
+        spec = planned.spec
         row.episodes += 1
         loop = _loop(spec.planner)
         if loop is None:  # the oracle: no model, no call
@@ -456,8 +481,7 @@ class _Tally:
         oracle = self._oracle_length(spec.config)
         for request in self._rounds.requests(spec, loop):
             tokens = self._counter(request.model).count(request.messages)
-            most, short = _seat_calls(loop, request.role, spec.config.agent_count,
-                                      spec.budget, oracle)
+            most, short = _seat_calls(loop, spec.config.agent_count, spec.budget, oracle)
             share = row.shares.setdefault(request.model, _ModelShare())
             share.max_calls += most
             share.low_tokens += tokens * short

@@ -1,8 +1,8 @@
 """What the engine tells a front end while a run goes: any door (the command line's rich
 progress, a notebook, a web page) draws these; the engine itself prints nothing.
 
-Step events come from episodes run in this process (the local executor with one worker);
-worker processes and Ray report whole episodes.
+Step events come from episodes run in this process (those with a human seat); worker
+processes report each episode's start and result, Ray each result.
 """
 
 from __future__ import annotations
@@ -25,16 +25,20 @@ class Notice:
 
 @dataclass(frozen=True)
 class RunStarted:
-    """The plan is made and checked; `total` episodes, `done` of them already recorded."""
+    """The plan is made and checked; `total` episodes, `done` of them already recorded
+    (`recorded`: their result lines, so that a resumed run's progress counts every episode
+    of the run, not only those it runs now)."""
 
     folder: Path
     total: int
     done: int
+    recorded: tuple[dict[str, Any], ...] = ()
 
 
 @dataclass(frozen=True)
 class EpisodeStarted:
-    """An episode began (its key as in result lines: model, condition, arm, task, epoch)."""
+    """An episode began (its key as in result lines: model, condition, arm, task, epoch;
+    from the in-process executor, also its seats' `models`)."""
 
     key: dict[str, Any]
 

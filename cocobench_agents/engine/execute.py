@@ -1,5 +1,6 @@
-"""Running the pending episodes of a run on the executor the request names: this process
-(asyncio), worker processes, or Ray. Nothing here imports Ray until a Ray run starts."""
+"""Running the pending episodes of a run on the executor the request names: worker processes
+watched by this one (local), or Ray; a run a person plays runs here, in turn. Nothing here
+imports Ray until a Ray run starts."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from typing import Any
 
 from cocobench_agents.engine.request import ExecutionSettings, RunRequest
 from cocobench_agents.episode_runner import has_human_seat
-from cocobench_agents.harness.batch import ResultCallback, execute_and_close
+from cocobench_agents.harness.batch import ResultCallback
 from cocobench_agents.harness.batch import execute as execute_batch
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.plan import PlannedEpisode
@@ -34,25 +35,23 @@ def execute(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ModelPo
             request: RunRequest, *, on_result: ResultCallback, limit: SpendLimit | None,
             notify: Callable[[str], None], **hooks: Any) -> None:
     """Run `episodes` into `folder` as `request.execution` says (a run with human seats: in
-    turn, here, whatever it says); each result goes to `on_result` once appended. `hooks`
-    (``on_start``, ``on_step``) reach episodes run in this process."""
+    turn, here, whatever it says); each result goes to `on_result` once appended. `hooks`:
+    ``on_start`` hears of every episode's start, ``on_step`` of the steps of episodes run in
+    this process (a person's)."""
     execution = request.execution
     if request.has_human_seats:
         asyncio.run(_in_turn(episodes, folder, pool, request, on_result=on_result,
                              limit=limit, **hooks))
         return
     options: dict[str, Any] = {"limit": limit,
-                               "episode_timeout_s": request.limits.episode_timeout_s(human=False)}
+                               "episode_timeout_s": request.limits.episode_timeout_s(human=False),
+                               "runaway": request.limits.runaway(request.backend)}
     if execution.executor == "ray":
         _on_ray(episodes, folder, pool, execution, on_result, notify, options)
         return
     workers = 1 if execution.workers is None else execution.workers or available_cores()
-    if workers > 1:
-        execute_in_workers(episodes, folder, pool.settings, jobs=execution.jobs,
-                           workers=workers, on_result=on_result, **options)
-    else:
-        asyncio.run(execute_and_close(episodes, folder, pool, jobs=execution.jobs,
-                                      on_result=on_result, **options, **hooks))
+    execute_in_workers(episodes, folder, pool.settings, jobs=execution.jobs, workers=workers,
+                       on_result=on_result, on_start=hooks.get("on_start"), **options)
 
 
 async def _in_turn(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ModelPool,

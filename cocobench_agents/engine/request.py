@@ -18,6 +18,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, field_validator, model_validator
 from pydantic.fields import FieldInfo
 
+from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.models.human import HUMAN
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.prompts.suite import DEFAULT_SUITE
@@ -25,6 +26,7 @@ from cocobench_agents.setting_kinds import Kind, kind_of, run_setting, shaping
 
 DEFAULT_SOURCE = "cocobench-240"
 MODEL_EPISODE_TIMEOUT_S = 7200.0  # `limits.episode_timeout` of an episode without a person
+THOR_STALL_S = 1800.0  # `limits.stall_timeout` on AI2-THOR: Unity's start blocks for minutes
 BACKENDS = ("embedded", "ai2thor")
 
 
@@ -119,6 +121,25 @@ class Limits(Settings):
         description="Wall-clock seconds an episode may run before it ends as an "
                     "infrastructure error (0: no limit; default: 7200 for episodes of "
                     "models, no limit for episodes with a human seat).")
+
+    episode_memory: float = run_setting(
+        RunawayLimits.episode_memory_mb, flag="--episode-memory", gt=0,
+        description="MB an episode may add to its worker's memory: a worker past this times "
+                    "its episodes in flight (or with the machine about to run out) is stopped, "
+                    "its episodes run again alone, and one that does it again ends as a "
+                    "'memory' infrastructure error.")
+    stall_timeout: float | None = run_setting(
+        None, flag="--stall-timeout", gt=0,
+        description="Seconds a worker's event loop may stay busy without yielding before the "
+                    "worker is stopped; its episodes run again alone, and one that does it "
+                    "again ends as a 'stalled' infrastructure error (default: 120; 1800 with "
+                    "the ai2thor backend, whose steps block and whose first start may "
+                    "download Unity).")
+
+    def runaway(self, backend: str) -> RunawayLimits:
+        """When the executor stops a runaway episode's worker, on `backend`."""
+        default = THOR_STALL_S if backend == "ai2thor" else RunawayLimits.stall_s
+        return RunawayLimits(self.episode_memory, self.stall_timeout or default)
 
     def episode_timeout_s(self, human: bool) -> float | None:
         """The wall-clock limit of an episode (None: none); `human`: it has a human seat,

@@ -44,6 +44,7 @@ from cocobench_agents.harness.store import RunFolder, RunFolderWriteError
 from cocobench_agents.harness.summary import latest
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.human import SeatDesk
+from cocobench_agents.models.settings import unset_sampling_notice
 
 _NO_DESK = ("human seats need a player: run it with `cocobench run` (it serves a play page), "
             "or pass desk=… to run()")
@@ -69,21 +70,32 @@ def run(request: RunRequest, *, resume: bool = False, retry_errors: bool = False
             emit(events.Notice(f"{folder.path}: taking over the lock of pid {lock.stale_pid}, "
                                "which ended without releasing it"))
         record = folder.open_for_resume() if resume else None
+        if not resume:  # an occupied folder is refused before any check that calls a model
+            folder.check_unused()
         for warning in folder.warnings:
             emit(events.Notice(warning))
         resolved = _checked(request, record, folder, emit)
         todo = resolved.episodes if record is None else pending_episodes(
             resolved.episodes, folder, retry_errors=retry_errors)
         pool = ModelPool(request.model_settings, desk=_logged_desk(desk, request, todo, folder))
-        if todo:  # a finished run is only summarised: no model stack to load, no key to need
+        limits = request.limits
+        limit = SpendLimit(limits.max_cost, limits.max_total_tokens,
+                           spent=latest(folder.results()))
+        # A finished run is only summarised (no model stack to load, no key to need), and a
+        # run already at its spend limit starts nothing: neither calls a model.
+        if todo and not limit.reached():
             if record is not None:  # a new run's names were checked before it resolved
                 _check_model_names(request)
             _check_planners_and_endpoints(pool, resolved)
+            if resolved.remote_model_modes and (notice := unset_sampling_notice(
+                    request.model_settings, _called_models(resolved))):
+                emit(events.Notice(notice))
         if record is None:
             folder.create(run_record(resolved))
         total = len(resolved.episodes)
-        emit(events.RunStarted(folder.path, total, total - len(todo)))
-        stopped = _execute(todo, folder, pool, request, emit, total) if todo else None
+        emit(events.RunStarted(folder.path, total, total - len(todo),
+                               _recorded(resolved.episodes, todo, folder)))
+        stopped = _execute(todo, folder, pool, request, emit, total, limit) if todo else None
     return collect_results(folder.path, stopped)
 
 
@@ -136,6 +148,16 @@ def _check_suites_unchanged(resolved: ResolvedRun, record: dict[str, Any],
         unchanged(suite, recorded.get(suite.label) or {})
 
 
+def _recorded(planned: list[PlannedEpisode], todo: list[PlannedEpisode],
+              folder: RunFolder) -> tuple[dict[str, Any], ...]:
+    """The result lines of the planned episodes that will not run again."""
+    if len(todo) == len(planned):  # a new run, or nothing recorded yet
+        return ()
+    pending = {p.key for p in todo}
+    done = folder.scan_results().done
+    return tuple(done[p.key] for p in planned if p.key not in pending and p.key in done)
+
+
 def _logged_desk(desk: SeatDesk | None, request: RunRequest, todo: list[PlannedEpisode],
                  folder: RunFolder) -> LoggedDesk | None:
     """`desk` behind the run's answer logs, when an episode to run has a human seat (a
@@ -155,27 +177,28 @@ def _check_model_names(request: RunRequest) -> None:
             pool.validate(model)
 
 
+def _called_models(resolved: ResolvedRun) -> list[str]:
+    """Every model a seat of the run may call (the built-ins among them)."""
+    return [*resolved.models, *resolved.request.agent_models.values()]
+
+
 def _check_planners_and_endpoints(pool: ModelPool, resolved: ResolvedRun) -> None:
     """User planners (one demo episode each) and, unless the request says not to, one
     pre-flight call per remote model and input kind."""
     from cocobench_agents.harness.planner_check import check_planners
 
-    request = resolved.request
     check_planners(c.planner for c in resolved.conditions)
-    if request.preflight:
+    if resolved.request.preflight:
         from cocobench_agents.models.preflight import preflight
 
-        preflight(pool, [*resolved.models, *request.agent_models.values()],
-                  resolved.remote_model_modes)
+        preflight(pool, _called_models(resolved), resolved.remote_model_modes)
 
 
 def _execute(todo: list, folder: RunFolder, pool: ModelPool, request: RunRequest,
-             emit: EventHandler, total: int) -> str | None:
-    """Run the pending episodes; why the run stopped starting episodes (a spend limit), or
-    None. Interruptions and failures of the folder or executor raise `RunStopped`."""
-    limits = request.limits
-    limit = SpendLimit(limits.max_cost, limits.max_total_tokens,
-                       spent=latest(folder.results()))
+             emit: EventHandler, total: int, limit: SpendLimit) -> str | None:
+    """Run the pending episodes within `limit`; why the run stopped starting episodes (a
+    spend limit), or None. Interruptions and failures of the folder or executor raise
+    `RunStopped`."""
     recorded = 0
 
     def on_result(record: dict[str, Any]) -> None:
@@ -207,7 +230,8 @@ def _execute(todo: list, folder: RunFolder, pool: ModelPool, request: RunRequest
         raise ExecutorFailed(str(exc), folder.path) from None
     left = len(todo) - recorded
     if left and limit.reached():
-        flag = "--max-cost USD" if limits.max_cost is not None else "--max-total-tokens N"
+        flag = ("--max-cost USD" if request.limits.max_cost is not None
+                else "--max-total-tokens N")
         message = (f"spend limit reached ({limit.describe()}): {left} episodes not started; "
                    "raise the limit and finish the run with: "
                    f"{resume_command(folder.path, flag)}")

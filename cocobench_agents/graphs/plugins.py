@@ -23,7 +23,14 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.graphs.registry import PLANNERS, PlannerError, PlannerSpec, UnknownPlanner
+from cocobench_agents.graphs.registry import (
+    LOOPS,
+    PLANNERS,
+    PROMPTS,
+    PlannerError,
+    PlannerSpec,
+    UnknownPlanner,
+)
 
 GROUP = "cocobench.planners"
 CODE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # it names run folders
@@ -171,6 +178,7 @@ def _exec_file(path: Path, attribute: str) -> tuple[Any, PlannerOrigin]:
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module  # dataclasses and type hints look their module up by name
+    _importable(path.parent)
     try:
         exec(compile(source, str(path), "exec"), module.__dict__)
     except SyntaxError as exc:
@@ -181,6 +189,15 @@ def _exec_file(path: Path, attribute: str) -> tuple[Any, PlannerOrigin]:
         raise PlannerError(f"planner file {path}: importing it failed: {describe_error(exc)}"
                            ) from None
     return module, PlannerOrigin("file", f"{path}:{attribute}", str(path), _sha256(source))
+
+
+def _importable(folder: Path) -> None:
+    """Let a planner file import the modules beside it (`import helpers`), as `python
+    FILE.py` allows: its folder goes first on `sys.path`, once. Every process that loads the
+    file does this (forked and spawned workers, Ray workers), since they all load it here."""
+    entry = str(folder)
+    if entry not in sys.path:
+        sys.path.insert(0, entry)
 
 
 def _import_module(target: str, attribute: str) -> tuple[Any, PlannerOrigin]:
@@ -255,6 +272,7 @@ def _as_spec(value: Any, name: str, attribute: str, where: str) -> PlannerSpec:
         raise PlannerError(f"planner {where}: {attribute} is of type {type(value).__name__}, "
                            "not a PlannerSpec or a function returning a StateGraph")
     _check_code(spec, where)
+    _check_shape(spec, where)
     return spec
 
 
@@ -272,6 +290,19 @@ def _check_code(spec: PlannerSpec, where: str) -> None:
     if taken is not None:
         raise PlannerError(f"planner {where}: condition code {spec.code!r} is the built-in "
                            f"{taken}'s; choose another")
+
+
+def _check_shape(spec: PlannerSpec, where: str) -> None:
+    """The loop and prompt a spec declares are ones the dry run knows how to count."""
+    if spec.loop is not None and spec.loop not in LOOPS:
+        raise PlannerError(f"planner {where}: loop {spec.loop!r} is not one of "
+                           f"{', '.join(LOOPS)} (or None: not declared)")
+    if spec.prompt is not None and spec.prompt not in PROMPTS:
+        raise PlannerError(f"planner {where}: prompt {spec.prompt!r} is not one of "
+                           f"{', '.join(PROMPTS)} (or None: from decentralized)")
+    if spec.loop in ("round", "led-round") and spec.prompt_kind != "agent":
+        raise PlannerError(f"planner {where}: loop {spec.loop!r} asks every agent, so its "
+                           "prompt is 'agent', not 'team'")
 
 
 def _builtin_source(spec: PlannerSpec) -> str:

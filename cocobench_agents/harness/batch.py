@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
 from cocobench_agents.episode_runner import ClientFactory, run_episode
+from cocobench_agents.graphs.node_errors import PlannerNodeError
 from cocobench_agents.harness.errors import FatalModelError, fatal_model_error
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.plan import PlannedEpisode
@@ -23,7 +24,8 @@ from cocobench_agents.models import ModelPool
 from cocobench_agents.models.secrets import redact
 
 ResultCallback = Callable[[dict[str, Any]], None]
-StartCallback = Callable[[dict[str, Any]], None]  # the episode's key, as in result lines
+# The episode's key and its seats' `models`, as in result lines.
+StartCallback = Callable[[dict[str, Any]], None]
 StepCallback = Callable[[dict[str, Any], dict[str, Any]], None]  # key, landed step
 
 
@@ -63,7 +65,7 @@ async def execute(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: C
             if halt.is_set() or (limit is not None and limit.reached()):
                 return
             if on_start is not None:
-                on_start(planned.key.as_dict())
+                on_start(start_key(planned))
             record, document = await run_one(planned, folder, pool,
                                              timeout_s=episode_timeout_s, on_step=on_step)
         store(record)
@@ -89,6 +91,11 @@ async def execute_and_close(episodes: Sequence[PlannedEpisode], folder: RunFolde
         await pool.aclose()
 
 
+def start_key(planned: PlannedEpisode) -> dict[str, Any]:
+    """What `on_start` hears of an episode: its key and its seats' `models`."""
+    return {**planned.key.as_dict(), "models": planned.spec.identifiers()["models"]}
+
+
 def longest_first(episodes: Sequence[PlannedEpisode]) -> list[PlannedEpisode]:
     """`episodes` by step budget, longest first (stable): a long episode started last would
     run alone at the end of a run; this order keeps every slot busy until near the end."""
@@ -109,6 +116,11 @@ async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactor
         document, result = await asyncio.wait_for(
             run_episode(spec, pool, controller=spec.controller(), on_step=step_hook),
             timeout_s)
+    except PlannerNodeError as exc:  # its trajectory shows what led to the node's exception
+        record = infra_error_record(planned, redact(str(exc), _secrets(pool)),
+                                    time.perf_counter() - started)
+        record["trajectory"] = folder.write_trajectory(key, exc.document)
+        return record, exc.document
     except Exception as exc:  # noqa: BLE001 - one broken episode must not stop the run
         elapsed = time.perf_counter() - started
         error = redact(repr(exc), _secrets(pool))

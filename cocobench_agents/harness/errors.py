@@ -15,6 +15,15 @@ from typing import Any
 FATAL_KINDS = {
     "auth": "the provider refused the credentials",
     "not_found": "the provider does not know the model (or the endpoint)",
+    "unsupported_input": "the model does not take the input sent (an image, for a text-only "
+                         "model)",
+}
+#: What to do about each fatal kind before re-running the failed episodes.
+FIXES = {
+    "auth": "Fix the key",
+    "not_found": "Fix the model name or --api-base",
+    "unsupported_input": "Serve a model that takes images at that address (llama.cpp: start "
+                         "it with its --mmproj file; or start a new run with --obs blind)",
 }
 
 
@@ -25,12 +34,18 @@ class WorkerError(RuntimeError):
 
 class FatalModelError(RuntimeError):
     """A model call failed in a way that fails every later call too (an authentication
-    error, a model that does not exist): the run stopped starting episodes; those in flight
-    finished and are recorded (as backend errors, like the one that raised this)."""
+    error, a model that does not exist, an input the model does not take): the run stopped
+    starting episodes; those in flight finished and are recorded (as backend errors, like
+    the one that raised this)."""
 
     def __init__(self, model: str, kind: str, detail: str) -> None:
         super().__init__(model, kind, detail)
         self.model, self.kind, self.detail = model, kind, detail
+
+    @property
+    def fix(self) -> str:
+        """What to do about it (a sentence without its full stop)."""
+        return FIXES.get(self.kind, "Fix the model's settings")
 
     def __str__(self) -> str:
         return (f"{self.model}: {FATAL_KINDS.get(self.kind, self.kind)} ({self.detail}); "

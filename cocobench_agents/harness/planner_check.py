@@ -14,6 +14,7 @@ from collections.abc import Iterable
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
 from cocobench_agents.graphs import PlannerContext, PlannerError, compiled_graph
+from cocobench_agents.graphs.node_errors import PlannerNodeError
 from cocobench_agents.graphs.plugins import LoadedPlanner, describe_error, user_planners
 from cocobench_agents.models import ModelPool
 
@@ -62,8 +63,10 @@ async def _check(name: str) -> None:
                            "end; end a step with observe_next (it stops on the step budget) "
                            "and route with continue_or_end") from None
     except Exception as exc:  # noqa: BLE001 - any failure of user code fails the check
+        # A node's exception comes with its node, file, line and last frames.
+        cause = exc if isinstance(exc, PlannerNodeError) else describe_error(exc)
         raise PlannerError(f"planner {name}: its check episode ({CHECK_TASK}, greedy) failed: "
-                           f"{describe_error(exc)}") from None
+                           f"{cause}") from None
     if not result.terminal_reason:
         raise PlannerError(f"planner {name}: its check episode ({CHECK_TASK}, greedy) ended "
                            "without a recorded terminal reason; end through land_round or "

@@ -9,7 +9,10 @@ that ran the episode, and ``requeued``, on an episode that was queued again.
 The fleet follows the cluster. Episodes wait in one queue, and every started worker takes
 from it, the least busy first, with at most `jobs` episodes in flight across the cluster. A
 worker that dies (its process, its node, its Unity) is dropped, and its episodes in flight go
-back to the front of the queue, once each. A new worker starts whenever Ray has room for one
+back to the front of the queue, once each, to run alone. The driver also watches each worker
+(`runaway`): one past its memory budget, or whose event loop stops answering, is killed; the
+episode that does it again alone is recorded as an infrastructure error naming the cause. A
+new worker starts whenever Ray has room for one
 (a node that joined, resources set free), up to `workers`; the run never waits for one while
 another can take episodes, and stops (`WorkersLost`) when none has been alive for `wait_s`.
 Model calls hold a permit of the run's `ConcurrencyLimiter`, so `max_concurrency` is a limit
@@ -41,18 +44,21 @@ from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import limiter_actor
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
 from cocobench_agents.harness.ray_worker import (
+    WATCH_GROUP,
     EpisodeWorker,
     KeyVariables,
     WorkerInfo,
     run_key_variables,
     unity_died,
 )
+from cocobench_agents.harness.runaway import DEFAULT_LIMITS, RunawayLimits
 from cocobench_agents.harness.store import EpisodeKey, RunFolder
 from cocobench_agents.harness.workers import available_cores, share
 from cocobench_agents.models import ModelSettings, redact
 
 WAIT_S = 0.5  # the driver wakes this often: Ctrl-C, room for a worker, the wait_s clock
 GROW_EVERY_S = 1.0  # how often the driver asks Ray whether another worker would fit
+HEALTH_EVERY_S = 1.0  # how often the driver asks each worker for its memory
 CLOSE_TIMEOUT_S = 30.0  # for workers to stop their Unity before they are killed
 
 
@@ -136,11 +142,13 @@ def execute_on_ray(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                    on_result: ResultCallback | None = None,
                    on_start: Callable[[FleetShape], None] | None = None,
                    limit: SpendLimit | None = None,
-                   episode_timeout_s: float | None = None) -> None:
+                   episode_timeout_s: float | None = None,
+                   runaway: RunawayLimits = DEFAULT_LIMITS) -> None:
     """Run every episode on Ray, appending each result as it arrives, then `on_result`;
     `on_start(shape)` is told the first fleet before the first episode. Once `limit` is
     reached no further episode is dispatched; an episode running past `episode_timeout_s`
-    ends as an infrastructure error (as in a local run).
+    ends as an infrastructure error, and one that runs away (`runaway`) as one naming the
+    cause (as in a local run).
 
     The run stops early, what finished recorded, with `WorkerError` (workers cannot start),
     `WorkerEnvironmentError` (a worker's node lacks a key variable of the run), both before
@@ -166,7 +174,8 @@ def execute_on_ray(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                        most=min(options.workers or jobs, jobs),
                        keys=run_key_variables(settings, _models(episodes)))
         run = _Run(folder, settings, fleet, jobs=jobs, wait_s=options.wait_s,
-                   on_result=on_result, limit=limit, episode_timeout_s=episode_timeout_s)
+                   on_result=on_result, limit=limit, episode_timeout_s=episode_timeout_s,
+                   runaway=runaway)
         try:
             # As many as Ray can place now (a node still counted but just lost holds none);
             # the others start once there is room.
@@ -211,6 +220,10 @@ class _Worker:
     holder: str
     info: WorkerInfo | None = None
     busy: int = 0
+    alone: bool = False  # running an episode that must run by itself
+    health: Any = None  # the `health` call in flight
+    asked: float = 0.0  # when it was sent
+    stopped_for: str | None = None  # the runaway cause it was killed for
 
 
 @dataclass
@@ -218,6 +231,7 @@ class _InFlight:
     planned: PlannedEpisode
     worker: _Worker
     started: float = field(default_factory=time.perf_counter)
+    alone: bool = False
 
 
 class _Run:
@@ -225,19 +239,21 @@ class _Run:
 
     def __init__(self, folder: RunFolder, settings: ModelSettings, fleet: _Fleet, *,
                  jobs: int, wait_s: float, on_result: ResultCallback | None,
-                 limit: SpendLimit | None, episode_timeout_s: float | None) -> None:
+                 limit: SpendLimit | None, episode_timeout_s: float | None,
+                 runaway: RunawayLimits = DEFAULT_LIMITS) -> None:
         import ray
 
         self.ray, self.folder, self.settings, self.fleet = ray, folder, settings, fleet
         self.jobs, self.wait_s, self.on_result = jobs, wait_s, on_result
-        self.limit, self.episode_timeout_s = limit, episode_timeout_s
-        self.actor_class = ray.remote(EpisodeWorker)
+        self.limit, self.episode_timeout_s, self.runaway = limit, episode_timeout_s, runaway
+        self.actor_class = ray.remote(concurrency_groups={WATCH_GROUP: 1})(EpisodeWorker)
         self.limiter: Any = None
         self.launched = 0
         self.starting: dict[Any, _Worker] = {}  # the `ready` call of each → the worker
         self.workers: list[_Worker] = []  # started, and not known dead
         self.in_flight: dict[Any, _InFlight] = {}
         self.requeued: Counter[EpisodeKey] = Counter()
+        self.alone: set[EpisodeKey] = set()  # queued again: they run by themselves
         self.halt: Exception | None = None  # why no further episode is dispatched
         self.alone_since: float | None = None  # since when no worker has been alive
         self.ever_alive = False
@@ -366,6 +382,7 @@ class _Run:
                 queue.clear()  # left pending: --resume runs them
             self._grow(len(queue))
             self._fill(queue)
+            self._watch()
             self._check_alive(len(queue) + len(self.in_flight))
             waiting = [*self.in_flight, *self.starting]
             if not waiting:  # no worker, none starting: the cluster has no room yet
@@ -381,27 +398,71 @@ class _Run:
             raise self.halt
 
     def _fill(self, queue: deque[PlannedEpisode]) -> None:
-        """Send queued episodes to the least busy workers, `jobs` in flight at most."""
+        """Send queued episodes to the least busy workers, `jobs` in flight at most; an
+        episode that must run alone waits for an idle worker."""
         while queue and len(self.in_flight) < self.jobs:
-            free = [w for w in self.workers if w.busy < self.fleet.per_worker]
+            alone = queue[0].key in self.alone
+            free = [w for w in self.workers if not w.alone
+                    and (w.busy == 0 if alone else w.busy < self.fleet.per_worker)]
             if not free:
                 return
             worker = min(free, key=lambda w: w.busy)
             planned = queue.popleft()
             self.in_flight[worker.actor.run.remote(planned, self.episode_timeout_s)] = (
-                _InFlight(planned, worker))
+                _InFlight(planned, worker, alone=alone))
             worker.busy += 1
+            worker.alone = alone
+
+    def _watch(self) -> None:
+        """Ask each worker for its memory every `HEALTH_EVERY_S`; kill one past its budget,
+        or busy and silent past the stall limit (its episodes then fail in `_collect`)."""
+        now = time.monotonic()
+        for worker in list(self.workers):
+            if worker.health is not None:
+                ready, _ = self.ray.wait([worker.health], timeout=0)
+                if not ready:  # the whole process is stuck (frozen, swapping)
+                    self._stop_runaway(worker, self.runaway.breach(
+                        grown_bytes=None, in_flight=worker.busy, silent_s=now - worker.asked))
+                    continue
+                rss, silent = self._answer(worker.health)
+                worker.health = None
+                start = worker.info.rss if worker.info is not None else None
+                grown = None if rss is None or start is None else rss - start
+                if self._stop_runaway(worker, self.runaway.breach(
+                        grown_bytes=grown, in_flight=worker.busy, silent_s=silent)):
+                    continue
+            if now - worker.asked >= HEALTH_EVERY_S:
+                worker.asked = now
+                worker.health = worker.actor.health.options(
+                    concurrency_group=WATCH_GROUP).remote()
+
+    def _answer(self, ref: Any) -> tuple[int | None, float]:
+        try:
+            return self.ray.get(ref)
+        except self.ray.exceptions.RayError:
+            return None, 0.0  # the worker is gone: its episodes report it
+
+    def _stop_runaway(self, worker: _Worker, cause: str | None) -> bool:
+        if cause is None:
+            return False
+        worker.stopped_for = cause
+        self._drop(worker, graceful=False)
+        return True
 
     def _collect(self, ref: Any, queue: deque[PlannedEpisode]) -> None:
         job = self.in_flight.pop(ref)
         job.worker.busy -= 1
+        if job.alone:
+            job.worker.alone = False
         try:
             document, record = self.ray.get(ref)
         except self.ray.exceptions.RayActorError as exc:  # the worker or its node is lost
             self._drop(job.worker, graceful=False)
-            if not self._requeue(job.planned, queue):
-                self._record(job, None, self._error(job, f"Ray worker died twice running it: "
-                                                         f"{_gist(exc)}"))
+            cause = job.worker.stopped_for
+            if job.alone or not self._requeue(job.planned, queue):
+                error = (self.runaway.error(cause) if cause else
+                         f"Ray worker died twice running it: {_gist(exc)}")
+                self._record(job, None, self._error(job, error))
             return
         except self.ray.exceptions.RayError as exc:
             document, record = None, self._error(job, _gist(exc))
@@ -416,6 +477,7 @@ class _Run:
         self.requeued[planned.key] += 1
         if self.requeued[planned.key] > 1:
             return False
+        self.alone.add(planned.key)
         queue.appendleft(planned)
         return True
 

@@ -9,9 +9,11 @@ of the run's key variables that node lacks, before it is sent any episode.
 
 from __future__ import annotations
 
+import asyncio
 import os
 import socket
 import sys
+import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -20,11 +22,14 @@ from benchmark_adapter.sim.backends import check_backend
 from cocobench_agents.harness.batch import run_one
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
+from cocobench_agents.harness.runaway import rss_bytes
 from cocobench_agents.harness.store import EpisodeKey
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.models.registry import needed_key_variables
 
 THOR_GPU_VARIABLE = "COCOBENCH_THOR_GPU_DEVICE"
+WATCH_GROUP = "watch"  # the concurrency group (own thread, own loop) of `health`
+BEAT_S = 0.1  # how often the episodes' loop says it runs
 UNITY_DIED = "ThorCrashed("  # how an infrastructure error from a dead Unity starts
 
 KeyVariables = tuple[tuple[str, ...], ...]  # per model: the variables any one of which will do
@@ -39,6 +44,7 @@ class WorkerInfo:
     host: str
     pid: int
     missing: tuple[str, ...] = ()
+    rss: int | None = None  # its memory when it started, for the driver's watch
 
 
 class TrajectoryPath:
@@ -55,6 +61,7 @@ class EpisodeWorker:
     def __init__(self, settings: ModelSettings, limiter: Any, holder: str,
                  backend: str, keys: KeyVariables = ()) -> None:
         self.missing = missing_variables(keys)
+        self.last_beat, self.beat = time.monotonic(), None
         self.pool = LimitedPool(ModelPool(settings), limiter, holder)
         if backend != "embedded":
             _use_assigned_gpu()
@@ -69,12 +76,26 @@ class EpisodeWorker:
         import ray
 
         return WorkerInfo(ray.get_runtime_context().get_node_id(), socket.gethostname(),
-                          os.getpid(), self.missing)
+                          os.getpid(), self.missing, rss_bytes(os.getpid()))
+
+    async def health(self) -> tuple[int | None, float]:
+        """This worker's memory now, and for how long its episodes' event loop has not run
+        (`runaway`). Called in the `WATCH_GROUP` concurrency group, whose own thread and
+        loop answer while an episode blocks the main loop."""
+        return rss_bytes(os.getpid()), time.monotonic() - self.last_beat
+
+    async def _beat(self) -> None:
+        while True:
+            self.last_beat = time.monotonic()
+            await asyncio.sleep(BEAT_S)
 
     async def run(self, planned: PlannedEpisode, timeout_s: float | None = None
                   ) -> tuple[dict[str, Any] | None, dict[str, Any]]:
         """One episode (ended as an infrastructure error after `timeout_s`) → (its trajectory
         document, or None if it failed to run; its result line)."""
+        self.last_beat = time.monotonic()
+        if self.beat is None:  # on the episodes' loop, which exists once a call runs on it
+            self.beat = asyncio.create_task(self._beat())
         record, document = await run_one(planned, TrajectoryPath(),  # type: ignore[arg-type]
                                          self.pool, timeout_s=timeout_s)
         return document, record

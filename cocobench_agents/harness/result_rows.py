@@ -12,6 +12,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 Text = Annotated[str, Field(min_length=1)]
 Number = float | None  # strict: an int is a number, a string or a bool is not
+#: What a line's `construct_score` is not (a success score), said wherever a CS is shown:
+#: the run's summary legend, the report's main table, the viewer's tooltips.
+CS_NOTE = ("CS rates how the team coordinated, not whether it finished, so a team that fails "
+           "can score 1.00: D1 is the reference makespan ÷ the team's makespan, capped at 1, "
+           "and a team that stops early has a short makespan.")
 
 
 class _Row(BaseModel):

@@ -18,7 +18,7 @@ import os
 import re
 import tempfile
 import zlib
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -120,11 +120,16 @@ class RunFolder:
         finally:
             lock.release()
 
-    def create(self, run_record: dict[str, Any]) -> None:
-        """Start a new run; refuse to touch an existing one."""
+    def check_unused(self) -> None:
+        """Refuse a folder that already holds a run (`RunFolderError`): a new run checks it
+        before anything is called, and again as it creates the folder."""
         if (self.path / RUN_FILE).exists() or self.results_path.exists():
             raise RunFolderError(f"{self.path} already holds a run: pass --resume to complete "
                                  "it, or choose another --out folder")
+
+    def create(self, run_record: dict[str, Any]) -> None:
+        """Start a new run; refuse to touch an existing one."""
+        self.check_unused()
         try:
             self.path.mkdir(parents=True, exist_ok=True)
             write_json_atomic(self.path / RUN_FILE, run_record)
@@ -178,9 +183,11 @@ class RunFolder:
             raise _write_failed(target, exc) from None
         return relative
 
-    def prompts(self, key: EpisodeKey) -> dict[str, str]:
+    def prompts(self, episode: EpisodeKey | Mapping[str, Any]) -> dict[str, str]:
         """An episode's prompts by `prompt_hash` (a decision record's field); empty for an
-        episode without model calls or a folder written before prompts were kept."""
+        episode without model calls or a folder written before prompts were kept. The
+        episode is its `EpisodeKey` or its result line (what `results()` yields)."""
+        key = episode if isinstance(episode, EpisodeKey) else _episode_of_line(episode)
         path = self.inside(f"{key.folder()}/{PROMPTS_FILE}")
         try:
             return json.loads(gzip.decompress(path.read_bytes()))
@@ -189,9 +196,10 @@ class RunFolder:
         except (OSError, EOFError, ValueError, zlib.error) as exc:  # a damaged file
             raise RunFolderError(f"{path}: unreadable ({_gist(exc)})") from None
 
-    def prompt(self, key: EpisodeKey, prompt_hash: str) -> str | None:
-        """The text of the prompt a decision of episode `key` names (None if not kept)."""
-        return self.prompts(key).get(prompt_hash)
+    def prompt(self, episode: EpisodeKey | Mapping[str, Any], prompt_hash: str) -> str | None:
+        """The text of the prompt a decision of `episode` (its key or its result line) names
+        (None if not kept)."""
+        return self.prompts(episode).get(prompt_hash)
 
     def inside(self, relative: str) -> Path:
         """The path of `relative` in the run folder; refuses one that would leave it (`..`,
@@ -206,7 +214,12 @@ class RunFolder:
     def append_result(self, record: dict[str, Any]) -> None:
         """Append one result line, whole or not at all, and fsync it; `RunFolderWriteError`
         (the file cut back to its previous end) if it cannot be written."""
-        append_json_line(self.results_path, record)
+        append_json_lines(self.results_path, [record])
+
+    def append_results(self, records: list[dict[str, Any]]) -> None:
+        """`append_result` for several lines with one fsync (a group commit: a supervisor
+        of many workers records each batch that arrived together at the cost of one)."""
+        append_json_lines(self.results_path, records)
 
     def append_line(self, relative: str, record: dict[str, Any]) -> None:
         """Append `record` as one whole, fsync'd line to the file at `relative` in the run
@@ -304,7 +317,14 @@ def cut_torn_tail(path: Path) -> tuple[bytes, bytes]:
 def append_json_line(path: Path, record: dict[str, Any]) -> None:
     """Append `record` to `path` as one JSON line, whole or not at all, and fsync it;
     `RunFolderWriteError` (the file cut back to its previous end) if it cannot be written."""
-    line = (json.dumps(record, sort_keys=True, ensure_ascii=False) + "\n").encode("utf-8")
+    append_json_lines(path, [record])
+
+
+def append_json_lines(path: Path, records: list[dict[str, Any]]) -> None:
+    """Append `records` to `path`, a JSON line each, all or none, with one fsync;
+    `RunFolderWriteError` (the file cut back to its previous end) if they cannot be written."""
+    line = "".join(json.dumps(record, sort_keys=True, ensure_ascii=False) + "\n"
+                   for record in records).encode("utf-8")
     try:
         fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
     except OSError as exc:
@@ -330,10 +350,19 @@ def _json_object(raw: bytes) -> dict[str, Any] | None:
     return value if isinstance(value, dict) else None
 
 
-def result_key(record: dict[str, Any]) -> EpisodeKey:
+def result_key(record: Mapping[str, Any]) -> EpisodeKey:
     """The episode a result line belongs to."""
     return EpisodeKey(record["model"], record["condition"], record["task_id"],
                       int(record.get("epoch") or 0), record.get("arm") or "")
+
+
+def _episode_of_line(line: Mapping[str, Any]) -> EpisodeKey:
+    """The episode of a result line a caller passed (`TypeError` naming what it lacks)."""
+    try:
+        return result_key(line)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise TypeError("expected an EpisodeKey or a result line of results.jsonl (with "
+                        f"model, condition, task_id): {type(exc).__name__}: {exc}") from None
 
 
 def _name(key: EpisodeKey) -> str:

@@ -8,11 +8,18 @@ from collections.abc import Iterable
 from typing import Any
 
 from cocobench_agents.harness.infra import count_infra_failures
+from cocobench_agents.harness.result_rows import CS_NOTE
 from cocobench_agents.harness.store import result_key
 
 DIMS = ("D1", "D2", "D3", "D4")
 HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DIMS), "legal",
            "errors")
+#: The legend under a summary table (the run's closing summary, the viewer's runs page).
+LEGEND = ("SR: task success rate. CS: mean construct score of the scored episodes (n), "
+          "CS_D1..D4 per dimension; unscored episodes are not_engaged (no evidence of the "
+          "construct), low_signal (too little evidence) or na_no_actions (no step taken). "
+          f"{CS_NOTE} legal: plans with no illegal step. errors: episodes the model's "
+          "infrastructure or the harness ended.")
 
 
 def summary_table(records: Iterable[dict[str, Any]]) -> tuple[tuple[str, ...], list[list[Any]]]:

@@ -40,6 +40,17 @@ def is_context_window_message(text: str) -> bool:
         "too many tokens", "exceeds the available context", "prompt is too long"))
 
 
+def is_unsupported_input_message(text: str) -> bool:
+    """Whether an error's message says the model cannot take the request's input (an image
+    sent to a text-only model). Servers send it with any status, llama.cpp's as a 500 that
+    would otherwise be retried: no retry or later call can succeed."""
+    text = text.lower()
+    return any(phrase in text for phrase in (
+        "image input is not supported", "does not support image", "not support images",
+        "images are not supported", "image_url is only supported", "vision is not supported",
+        "multimodal is not supported", "does not support multimodal"))
+
+
 def status_code(exc: BaseException) -> int | None:
     """The HTTP status an exception carries, if any."""
     status = getattr(exc, "status_code", None)

@@ -57,7 +57,8 @@ class ModelError(Exception):
     """The model gave no usable answer (after retries: a `backend_error` decision).
 
     `kind` is one of: transient (retries exhausted), timeout, rate_limit, context_window,
-    bad_request, auth, not_found, empty, other.
+    bad_request, unsupported_input (an image to a text-only model), auth, not_found, empty,
+    other.
     """
 
     kind: str

@@ -11,7 +11,13 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from .cache import ResponseCache, cache_key
-from .failures import EmptyCompletion, MalformedCompletion, retry_after_s, status_code
+from .failures import (
+    EmptyCompletion,
+    MalformedCompletion,
+    is_unsupported_input_message,
+    retry_after_s,
+    status_code,
+)
 from .grammar import menu_grammar, wants_message
 from .messages import build_messages, cap_reply
 from .protocol import ModelError, ModelReply, ModelRequest
@@ -161,6 +167,8 @@ class RemoteClient:
             return "empty", True
         if isinstance(exc, MalformedCompletion):
             return "transient", True
+        if is_unsupported_input_message(str(exc)):  # whatever its status: permanent
+            return "unsupported_input", False
         return self.classify(exc)
 
     def _error(self, exc: BaseException, latency_s: float, spent: dict[str, Any]

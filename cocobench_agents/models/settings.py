@@ -6,6 +6,7 @@ import base64
 import ipaddress
 import json
 import os
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, Literal
 from urllib.parse import unquote, urlsplit, urlunsplit
@@ -14,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, field_validator
 
 from cocobench_agents.setting_kinds import run_setting, shaping
 
+from .builtin import is_builtin
 from .secrets import named_secrets, redact_named, redact_obj, redact_url, url_credentials
 
 #: `temperature` value meaning "as the reference": 0 for OpenAI model names starting with
@@ -193,6 +195,23 @@ class ModelSettings(BaseModel):
         record["extra_params"] = redact_named(_json_safe(self.extra_params))
         record["api_base"] = redact_url(self.api_base)
         return redact_obj(record, self.secrets())  # type: ignore[return-value]
+
+
+def unset_sampling_notice(settings: ModelSettings, models: Iterable[str]) -> str | None:
+    """A sentence naming the remote models among `models` whose calls carry no temperature
+    (neither `temperature` nor `extra_params` sets one): the provider samples at its own
+    default, often above 0, so their episodes are not reproducible. None when there is none."""
+    # "oracle" names the oracle baseline's rows: a planner, no model is called
+    unset = [m for m in dict.fromkeys(models) if m != "oracle" and not is_builtin(m)
+             and settings.temperature_for(m) is None
+             and "temperature" not in settings.extra_params]
+    if not unset:
+        return None
+    why = ("--temperature auto sends 0 only to gpt/o1/o3/o4 names"
+           if settings.temperature == TEMPERATURE_AUTO else "--temperature none")
+    return (f"sampling is unset for {', '.join(unset)}: no temperature is sent ({why}), so "
+            "the provider samples at its own default and the run is not reproducible; "
+            "--temperature 0 fixes it")
 
 
 def _json_safe(value: Any) -> Any:

@@ -18,7 +18,12 @@ from typing import Any
 
 from cocobench_agents.engine import events
 from cocobench_agents.models.human import Answer, Decision
-from cocobench_agents.play.prompt_parts import menu_labels, prompt_parts
+from cocobench_agents.play.prompt_parts import (
+    agent_label,
+    menu_labels,
+    numbered_history,
+    prompt_parts,
+)
 
 #: The result line's fields an episode's outcome shows on the page.
 OUTCOME_FIELDS = ("model", "condition", "arm", "task_id", "epoch", "dim", "task_success",
@@ -60,6 +65,9 @@ class PlayDesk:
         self._version = 0
         self._run: dict[str, Any] = {}
         self._episode: dict[str, Any] | None = None
+        # The episode's landed steps (agent, step number, call): the page numbers a
+        # prompt's recent actions with them.
+        self._landed: list[tuple[str, int, str]] = []
         self._outcomes: list[dict[str, Any]] = []
         self._ended: str | None = None
         self._listeners: list[Callable[[], None]] = []
@@ -95,6 +103,10 @@ class PlayDesk:
                              "folder": str(event.folder)}
             elif isinstance(event, events.EpisodeStarted):
                 self._episode = dict(event.key)
+                self._landed = []
+            elif isinstance(event, events.StepLanded):
+                self._follow_step(event)
+                return  # shown with the next decision
             elif isinstance(event, events.EpisodeRecorded):
                 self._outcomes.append({k: event.record.get(k) for k in OUTCOME_FIELDS})
             else:
@@ -117,8 +129,10 @@ class PlayDesk:
         with self._lock:
             asked = self._asked
             if asked is None or asked.decision.id != decision_id:
+                now = asked.decision.id if asked else None
                 raise NotPending(f"decision {decision_id!r} is not waiting for an answer "
-                                 "(answered already, withdrawn, or not asked)")
+                                 "(answered already, withdrawn, or not asked); asked now: "
+                                 f"{now or 'none'}")
             if not asked.decision.accepts(action_id):
                 raise NotOnMenu(f"action {action_id} is not on the menu of {decision_id!r}")
             if message.strip() and not asked.decision.wants_message:
@@ -142,7 +156,7 @@ class PlayDesk:
                 self.end_shown.set()
             return {
                 "version": self._version, "run": dict(self._run), "episode": self._episode,
-                "decision": _shown(asked.decision) if asked else None,
+                "decision": _shown(asked.decision, self._landed) if asked else None,
                 "outcomes": list(self._outcomes), "ended": self._ended,
             }
 
@@ -158,6 +172,15 @@ class PlayDesk:
             if listener in self._listeners:
                 self._listeners.remove(listener)
 
+    def _follow_step(self, event: events.StepLanded) -> None:
+        """Keep a step of the episode on the page (called with the lock held)."""
+        if self._episode is None or any(self._episode.get(k) != v
+                                        for k, v in event.key.items()):
+            return  # a model-only episode, run after the person's
+        step, result = event.step.get("step_index"), event.step.get("skill_result") or {}
+        if isinstance(step, int):
+            self._landed.append((str(result.get("agent")), step, str(event.step.get("label"))))
+
     def _changed(self) -> None:
         with self._lock:
             self._version += 1
@@ -171,13 +194,28 @@ def _settle(future: asyncio.Future[Answer], answer: Answer) -> None:
         future.set_result(answer)
 
 
-def _shown(decision: Decision) -> dict[str, Any]:
+def _shown(decision: Decision, landed: list[tuple[str, int, str]]) -> dict[str, Any]:
     """A decision as the page draws it: each menu option gets the line the prompt shows it
-    with (`label`, else its call)."""
+    with, its agent apart (`agent`, `label`; else its call); the recent actions are numbered
+    by the episode's steps, and the last of them is the seat's `last_action`."""
     shown = decision.as_dict()
     parts = prompt_parts(decision.prompt)
     labels = menu_labels(parts)
     for option in shown["menu"]:
-        option["label"] = labels.get(option["id"], option["call"])
+        line = labels.get(option["id"], option["call"])
+        agent, label = agent_label(line)
+        if agent != _agent_of(option["call"]):  # a line of one's own wording: kept whole
+            agent, label = None, line
+        option["agent"], option["label"] = agent, label
+    own = [(step, call) for agent, step, call in landed if decision.seat in ("team", agent)]
+    history = numbered_history(parts.get("history", ""), own)
+    if history is not None:
+        parts["history"] = "\n".join(history)
+    shown["last_action"] = history[-1] if history else None
     shown["parts"] = {name: text for name, text in parts.items() if name != "menu"}
     return shown
+
+
+def _agent_of(call: str) -> str:
+    """The agent a call is for: its first argument (`PickUp(agent_1, Apple)` → agent_1)."""
+    return call.partition("(")[2].split(",")[0].rstrip(")").strip()

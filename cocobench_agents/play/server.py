@@ -36,7 +36,13 @@ from aiohttp import web
 from markupsafe import Markup
 
 from cocobench_agents.play.desk import NotOnMenu, NotPending, PlayDesk
-from cocobench_agents.viewer.local_server import Handler, LocalServer, host_guard
+from cocobench_agents.viewer.local_server import (
+    Handler,
+    LocalServer,
+    host_guard,
+    request_number,
+    send_security_headers,
+)
 
 TOKEN_HEADER = "X-Cocobench-Token"
 #: How long a state request with `after` waits for a change before answering anyway.
@@ -47,6 +53,8 @@ MAX_TEXT = 1000
 MAX_BODY = 16 * 1024
 PAGE_PATH = "/play"
 NO_STORE = {"Cache-Control": "no-store"}
+#: What every answer allows: nothing (the page's own answer adds its script and style).
+POLICY = "default-src 'none'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
 
 
 class AnswerBody(pydantic.BaseModel):
@@ -92,11 +100,10 @@ class Page:
     def __init__(self, html: str, script: str, style: str) -> None:
         self.html = html
         self.headers = {
-            **NO_STORE, "Referrer-Policy": "no-referrer", "X-Content-Type-Options": "nosniff",
+            **NO_STORE, "Referrer-Policy": "no-referrer",
             "Content-Security-Policy": (
-                f"default-src 'none'; script-src '{_sha256(script)}'; "
-                f"style-src '{_sha256(style)}'; img-src data:; connect-src 'self'; "
-                "base-uri 'none'; form-action 'none'; frame-ancestors 'none'")}
+                f"{POLICY}; script-src '{_sha256(script)}'; style-src '{_sha256(style)}'; "
+                "img-src data:; connect-src 'self'")}
 
     @classmethod
     def render(cls) -> Page:
@@ -135,6 +142,7 @@ def play_app(desk: PlayDesk, token: str) -> web.Application:
     app = web.Application(middlewares=[host_guard, token_guard], client_max_size=MAX_BODY)
     app[DESK], app[TOKEN] = desk, token
     app[CHANGES], app[PAGE] = Changes(), Page.render()
+    send_security_headers(app, POLICY)
     app.cleanup_ctx.append(follow_desk)
     app.router.add_get(PAGE_PATH, page)
     app.router.add_get(f"{PAGE_PATH}/api/state", state)
@@ -161,9 +169,8 @@ async def state(request: web.Request) -> web.Response:
     desk = request.app[DESK]
     after = request.query.get("after")
     if after is not None:
-        if not after.isdigit():
-            return _error(400, "after must be a state version (a whole number)")
-        await request.app[CHANGES].after(desk, int(after), LONG_POLL_S)
+        version = request_number(after, "after (a state version)")
+        await request.app[CHANGES].after(desk, version, LONG_POLL_S)
     return web.json_response(desk.snapshot(), headers=NO_STORE)
 
 

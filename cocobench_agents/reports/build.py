@@ -37,7 +37,8 @@ class ReportSummary:
     plots: list[PlotEntry] = field(default_factory=list)
     plot_note: str | None = None  # why plots are missing, when they are
     episodes: int = 0
-    models: list[str] = field(default_factory=list)
+    models: list[str] = field(default_factory=list)  # each once, however many arms it ran in
+    arms: list[str] = field(default_factory=list)
     conditions: list[str] = field(default_factory=list)
     plot_condition: str | None = None
     warnings: list[str] = field(default_factory=list)  # about the runs read (invalid lines)
@@ -103,7 +104,7 @@ def build_report(runs: Sequence[str | Path], out: str | Path, *,
     files += [out / p.file for p in written]
     files.insert(0, _write(out / "index.md", index_markdown(data, made, written, boot, note)))
     return ReportSummary(out=out, files=files, tables=made, plots=written, plot_note=note,
-                         episodes=len(data.episodes), models=list(data.models),
+                         episodes=len(data.episodes), models=data.base_models(), arms=data.arms(),
                          conditions=list(data.conditions), plot_condition=shown,
                          warnings=list(data.warnings))
 

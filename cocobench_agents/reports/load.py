@@ -163,6 +163,16 @@ class ReportData:
     def architectures(self) -> list[str]:
         return _unique(split_condition(c)[0] for c in self.conditions)
 
+    def base_models(self) -> list[str]:
+        """The models themselves, each once however many arms it ran in (the rows are
+        ``MODEL @ARM`` labels)."""
+        return _unique(self.model_arms.get(label, (label, ""))[0] for label in self.models)
+
+    def arms(self) -> list[str]:
+        """The arms the rows compare (prompt suites, or runs with ``--arms``); none without."""
+        return _unique(arm for label in self.models
+                       if (arm := self.model_arms.get(label, (label, ""))[1]))
+
     def obs_modes(self) -> list[str]:
         modes = _unique(split_condition(c)[1] for c in self.conditions)
         return sorted(modes, key=lambda m: (_obs_rank(m), m))

@@ -137,9 +137,20 @@ def _run_row(run: RunInfo) -> list[str]:
         notes.append(f"{run.invalid_lines} invalid lines skipped")
     if run.missing_trajectories:
         notes.append(f"{run.missing_trajectories} trajectory files missing")
-    return [run.name, str(record.get("created_at") or ""), ", ".join(run.models),
+    models = ", ".join(run.plan.get("models") or [])
+    if run.arms:  # one model in two arms is one model
+        models += f"; arms: {', '.join(run.arms)}"
+    return [run.name, str(record.get("created_at") or ""), models,
             ", ".join(run.conditions), ", ".join(map(str, run.plan.get("sources") or [])),
             str(run.episodes), status, str(run.infra_errors), "; ".join(notes)]
+
+
+def counts_line(data: ReportData) -> str:
+    """``N episodes of M model(s) [in A arm(s)] under C condition(s)``: arms are not models."""
+    arms = data.arms()
+    in_arms = f" in {len(arms)} arm(s)" if arms else ""
+    return (f"{len(data.episodes)} episodes of {len(data.base_models())} model(s){in_arms} "
+            f"under {len(data.conditions)} condition(s)")
 
 
 def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
@@ -151,13 +162,12 @@ def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]
 def index_markdown(data: ReportData, tables: Sequence[Table], plots: Sequence[PlotEntry],
                    boot: Bootstrap, plot_note: str | None) -> str:
     """The report's front page: runs, what was counted, links to tables and plots."""
-    ep = data.episodes
-    lines = ["# CoCoBench report", "",
-             f"{len(ep)} episodes of {len(data.models)} model(s) under "
-             f"{len(data.conditions)} condition(s), from {len(data.runs)} run(s).", ""]
+    lines = ["# CoCoBench report", "", f"{counts_line(data)}, from {len(data.runs)} run(s).", ""]
     lines += warning_lines([*data.warnings, *infra_warnings(data)])
-    lines += [f"* Models: {', '.join(data.models) or '-'}",
-              f"* Conditions: {', '.join(data.conditions) or '-'}"]
+    lines.append(f"* Models: {', '.join(data.base_models()) or '-'}")
+    if data.arms():
+        lines.append(f"* Arms: {', '.join(data.arms())}")
+    lines.append(f"* Conditions: {', '.join(data.conditions) or '-'}")
     if data.superseded_across_runs:
         lines.append(f"* {data.superseded_across_runs} episodes found in several runs: the "
                      "later run's result is used.")

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cocobench_agents.harness.infra import retry_command
+from cocobench_agents.harness.result_rows import CS_NOTE
 from cocobench_agents.reports.load import DIMENSIONS, ReportData
 from cocobench_agents.reports.stats import Bootstrap, Estimate, mean_ci, paired_diff_ci
 from cocobench_agents.reports.table import Column, Table
@@ -77,8 +78,8 @@ def main_results(ctx: Ctx) -> Table:
     table = Table(
         "main_results", "Main results",
         "SR = task success rate (%); CS = mean construct score (0-1) over the episodes whose "
-        "own-dimension score is scored (gated NA scores excluded; n shown). 95% bootstrap "
-        "intervals in brackets. The paper's Table 1 is the C0_image rows.",
+        f"own-dimension score is scored (gated NA scores excluded; n shown). {CS_NOTE} 95% "
+        "bootstrap intervals in brackets. The paper's Table 1 is the C0_image rows.",
         [*ID_COLUMNS, *sr_cs_columns()], warnings=infra_warnings(ctx.data))
     for model, condition, mask in ctx.cells():
         table.rows.append([model, condition, int(mask.sum()), *sr_cs_cells(ctx, mask)])

@@ -6,10 +6,9 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from cocobench_agents.harness.store import RunFolderError
 from cocobench_agents.viewer.errors import ViewerError
 from cocobench_agents.viewer.pages import Pages
-from cocobench_agents.viewer.server import STATIC
+from cocobench_agents.viewer.server import static_files
 from cocobench_agents.viewer.source import Episode
 
 
@@ -26,9 +25,8 @@ def export(pages: Pages, out: Path) -> int:
 
 def _write(pages: Pages, out: Path) -> int:
     (out / "static").mkdir(parents=True, exist_ok=True)
-    for resource in STATIC.iterdir():
-        if resource.is_file():
-            (out / "static" / resource.name).write_bytes(resource.read_bytes())
+    for name, static in static_files().items():
+        (out / "static" / name).write_bytes(static.body)
     written = {"index.html": pages.runs()}
     episodes = pages.catalog.episodes()
     for episode in episodes:
@@ -50,11 +48,8 @@ def _copy_frames(pages: Pages, episode: Episode, out: Path) -> None:
         image = item.get("image") if isinstance(item, dict) else None
         if not isinstance(image, str) or image.startswith("data:"):
             continue
-        try:
-            source = run.folder.inside(image)
-        except RunFolderError:
-            continue  # a path leaving the run folder is never followed
-        if source.is_file():
+        source = run.file(image)  # None for a path or a link leading out of the run folder
+        if source is not None:
             target = out / "files" / str(run.index) / image
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(source, target)

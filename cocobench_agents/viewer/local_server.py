@@ -3,26 +3,72 @@ the caller's thread stays free (`cocobench view` waits for Ctrl-C; `cocobench ru
 engine's own `asyncio.run` while the play page is served).
 
 Every request must name the bound address in its `Host` header: a page of another site that
-a DNS-rebinding attack points at 127.0.0.1 sends its own host name and is refused.
+a DNS-rebinding attack points at 127.0.0.1 sends its own host name and is refused. Every
+answer carries a `Content-Security-Policy` and `X-Content-Type-Options: nosniff`
+(`send_security_headers`), and every number a request carries is read by `request_number`.
 """
 
 from __future__ import annotations
 
 import asyncio
 import errno
+import json
+import logging
+import re
 import threading
 from collections.abc import Awaitable, Callable
 from concurrent.futures import Future
 
 from aiohttp import hdrs, web
+from aiohttp.http_exceptions import HttpProcessingError
 
 from cocobench_agents.viewer.errors import ViewerError
 
 HOST = "127.0.0.1"
 #: How long the server waits, when it stops, for requests still being answered.
 SHUTDOWN_TIMEOUT_S = 2.0
+#: A number in a request: plain ASCII digits, at most 15 of them (below JavaScript's largest
+#: exact integer, so a page can send back any number it was given). Not `str.isdigit`, which
+#: takes "²" and "１", nor `int`, which also takes "+1", " 1", "1_0" and 5,000 digits (slowly).
+REQUEST_NUMBER = re.compile(r"[0-9]{1,15}")
 
 Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
+
+
+class NotMalformedRequests(logging.Filter):
+    """Lets through every record but aiohttp's traceback for a request it could not parse
+    (a raw non-ASCII byte in the path, say): that request was answered 400, and the
+    traceback would only clutter the terminal the server runs in."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not (record.exc_info and isinstance(record.exc_info[1], HttpProcessingError))
+
+
+#: Where the servers log an error (a failing handler's traceback, not a malformed request).
+LOG = logging.getLogger("cocobench_agents.server")
+LOG.addFilter(NotMalformedRequests())
+
+
+def request_number(text: str, name: str) -> int:
+    """`text`, a number taken from a request's path or query, as an int; a 400 naming `name`
+    when it is anything but plain ASCII decimal digits (at most 15)."""
+    if REQUEST_NUMBER.fullmatch(text) is None:
+        raise web.HTTPBadRequest(
+            text=json.dumps({"error": f"{name} must be a whole number (1 to 15 digits 0-9)"}),
+            content_type="application/json")
+    return int(text)
+
+
+def send_security_headers(app: web.Application, policy: str) -> None:
+    """Every answer of `app` says `X-Content-Type-Options: nosniff` (a file is only ever what
+    its type says) and carries the `Content-Security-Policy` `policy` unless its handler set
+    one of its own (the play page's, which adds its inline script and style by their hash)."""
+
+    async def add(request: web.Request, response: web.StreamResponse) -> None:
+        response.headers["X-Content-Type-Options"] = "nosniff"
+        response.headers.setdefault("Content-Security-Policy", policy)
+
+    app.on_response_prepare.append(add)
 
 
 @web.middleware
@@ -86,7 +132,8 @@ class LocalServer:
             loop.close()
 
     async def _main(self, loop: asyncio.AbstractEventLoop, bound: Future[int]) -> None:
-        runner = web.AppRunner(self.app, access_log=None, shutdown_timeout=SHUTDOWN_TIMEOUT_S)
+        runner = web.AppRunner(self.app, access_log=None, shutdown_timeout=SHUTDOWN_TIMEOUT_S,
+                               logger=LOG)
         await runner.setup()
         try:
             await web.TCPSite(runner, HOST, self.requested_port).start()

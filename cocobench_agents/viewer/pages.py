@@ -12,9 +12,17 @@ import jinja2
 
 from benchmark_adapter.metrics.constructs import construct_score
 from benchmark_adapter.metrics.errors import TrajectoryError
-from cocobench_agents.harness.summary import HEADERS, summary_table
+from cocobench_agents.harness.result_rows import CS_NOTE
+from cocobench_agents.harness.summary import HEADERS, LEGEND, summary_table
 from cocobench_agents.reports.load import split_condition
-from cocobench_agents.viewer.rows import COLUMNS, FILTERS, compare_path, episode_row
+from cocobench_agents.viewer.rows import (
+    COLUMNS,
+    FILTERS,
+    compare_path,
+    episode_row,
+    seat_models,
+    team_label,
+)
 from cocobench_agents.viewer.signals import STEP_CATEGORIES, construct_signal, gantt
 from cocobench_agents.viewer.source import Catalog, Episode
 from cocobench_agents.viewer.timeline import NO_PROMPT, NO_REPLY, build_timeline
@@ -34,7 +42,7 @@ def environment() -> jinja2.Environment:
         loader=jinja2.PackageLoader("cocobench_agents.viewer", "templates"),
         autoescape=jinja2.select_autoescape(["html"]), trim_blocks=True, lstrip_blocks=True)
     env.globals.update(columns=COLUMNS, filters=FILTERS, categories=STEP_CATEGORIES,
-                       NO_PROMPT=NO_PROMPT, NO_REPLY=NO_REPLY)
+                       NO_PROMPT=NO_PROMPT, NO_REPLY=NO_REPLY, legend=LEGEND, cs_note=CS_NOTE)
     return env
 
 
@@ -67,7 +75,9 @@ class Pages:
         values = {key: sorted({r["v"][index[key]] for r in rows}, key=_natural)
                   for key in FILTERS}
         if self._summary[0] != self.catalog.seq:
-            self._summary = (self.catalog.seq, summary_table(e.record for e in episodes))
+            # A human–AI team is its own row, named by its seats' models.
+            self._summary = (self.catalog.seq, summary_table(
+                {**e.record, "model": team_label(e.record)} for e in episodes))
         headers, summary = self._summary[1]
         return self._render("runs.html", "index.html", runs=self.catalog.runs, rows=rows,
                             values=values, headers=headers, summary=summary,
@@ -130,6 +140,7 @@ class Pages:
     def _render(self, template: str, page: str, **context: Any) -> str:
         return self.env.get_template(template).render(
             root=root_of(page), live=self.live, junk=self.catalog.junk,
+            team_label=team_label, seat_models=seat_models,
             problems=[p for run in self.catalog.runs for p in run.problems], **context)
 
 

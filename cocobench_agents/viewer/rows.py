@@ -37,7 +37,7 @@ def episode_row(episode: Episode, run_name: str) -> dict[str, Any]:
     steps = r.get("num_steps")
     cells = {
         "run": run_name,
-        "model": episode.key.model,
+        "model": team_label(r),
         "condition": episode.key.condition,
         "arm": str(r.get("arm") or split_condition(episode.key.condition)[0]),
         "task_id": episode.key.task_id + (f" @e{episode.key.epoch}" if episode.key.epoch
@@ -56,6 +56,24 @@ def episode_row(episode: Episode, run_name: str) -> dict[str, Any]:
     }
     return {"k": f"{episode.run}/{episode.key.folder()}", "h": episode.path,
             "c": compare_path(episode.key.task_id), "v": [cells[key] for key, _, _ in COLUMNS]}
+
+
+def seat_models(record: dict[str, Any]) -> dict[str, str]:
+    """Each seat's model, for a team whose seats differ (a human–AI team, `--agent-model`):
+    the result line's `models`; empty for a team of one model."""
+    models = record.get("models")
+    if isinstance(models, dict) and len(set(models.values())) > 1:
+        return {str(agent): str(model) for agent, model in models.items()}
+    return {}
+
+
+def team_label(record: dict[str, Any]) -> str:
+    """Who played: the model, or each seat's model (`agent_1: human · agent_2: greedy`) in a
+    team whose seats differ."""
+    seats = seat_models(record)
+    if seats:
+        return " · ".join(f"{agent}: {model}" for agent, model in seats.items())
+    return str(record["model"])
 
 
 def error_label(record: dict[str, Any]) -> str:

@@ -16,6 +16,7 @@ from typing import Any
 
 from cocobench_agents.harness.result_rows import row_error
 from cocobench_agents.harness.store import (
+    PROMPTS_FILE,
     RESULTS,
     RUN_FILE,
     EpisodeKey,
@@ -102,18 +103,34 @@ class RunSource:
         self.episodes[key] = Episode(self.index, key, data, seq)
         return seq + 1
 
+    def file(self, relative: str) -> Path | None:
+        """The file at `relative` inside the run folder, with every link resolved; None when
+        there is none or when it lies outside the folder (`..`, an absolute path, a link
+        leading out): the viewer reads and serves nothing else of the disk."""
+        try:
+            target = self.folder.inside(relative).resolve(strict=True)
+            inside = target.is_relative_to(self.path.resolve(strict=True))
+            return target if inside and target.is_file() else None
+        except (OSError, ValueError, RuntimeError, RunFolderError):  # RuntimeError: a link loop
+            return None
+
     def trajectory(self, episode: Episode) -> dict[str, Any] | None:
         """The episode's trajectory document (None when it is missing or unreadable)."""
         relative = episode.record.get("trajectory") or f"{episode.key.folder()}/trajectory.json"
+        path = self.file(str(relative))
+        if path is None:
+            return None
         try:
-            with open(self.folder.inside(str(relative)), encoding="utf-8") as f:
+            with open(path, encoding="utf-8") as f:
                 document = json.load(f)
-        except (OSError, ValueError, RunFolderError):
+        except (OSError, ValueError):
             return None
         return document if isinstance(document, dict) else None
 
     def prompts(self, episode: Episode) -> dict[str, str]:
         """The episode's prompts by hash (empty when the run did not keep them)."""
+        if self.file(f"{episode.key.folder()}/{PROMPTS_FILE}") is None:
+            return {}  # absent, or a link out of the run folder
         try:
             prompts = self.folder.prompts(episode.key)
         except (OSError, ValueError):

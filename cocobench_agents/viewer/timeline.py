@@ -31,6 +31,12 @@ class Decision:
         return str(self.record.get("status") or "")
 
     @property
+    def model(self) -> str:
+        """The model that made the decision (`human` for a person's); empty in records
+        older than the field."""
+        return str(self.record.get("model") or "")
+
+    @property
     def reply(self) -> str | None:
         reply = self.record.get("raw_output", self.record.get("raw_reply"))
         return reply if isinstance(reply, str) else None

@@ -16,6 +16,8 @@ import click
 import pytest
 
 from cocobench_agents.cli import COMMANDS, cli, load_env_file, main
+from cocobench_agents.harness.result_rows import CS_NOTE
+from tests.models.fake_openai import FakeOpenAI, ok
 
 HEAVY = ("langgraph", "litellm")
 
@@ -121,6 +123,7 @@ def test_baselines_add_the_oracle_and_built_ins_with_a_legend(tmp_path, capsys):
     rows = {tuple(line.split()[:2]) for line in printed.splitlines() if line.split()}
     assert {("greedy", "C0_image"), ("random", "C0_image"), ("oracle", "OR_image")} <= rows
     assert "not_engaged" in printed and "low_signal" in printed and "na_no_actions" in printed
+    assert CS_NOTE in " ".join(printed.split())  # why a failing team can have CS 1.00
     oracle = next(line for line in printed.splitlines() if line.startswith("oracle"))
     assert oracle.split()[3] == "100.0%"  # the upper bound: the oracle solves every instance
     recorded = json.loads((out / "run.json").read_text())
@@ -128,25 +131,46 @@ def test_baselines_add_the_oracle_and_built_ins_with_a_legend(tmp_path, capsys):
     assert recorded["plan"]["conditions"] == ["C0_image", "OR_image"]
 
 
+#: The Ctrl-C run: one model call per episode; `FINISHED` episodes are answered, then the
+#: model holds the next call (until the test releases it) so the signal lands mid-run.
+CTRL_C_EPISODES, FINISHED, HELD_S = 10, 3, 300.0
+
+
 @pytest.mark.slow
 def test_ctrl_c_keeps_what_finished_and_says_how_to_resume(tmp_path):
     out = tmp_path / "run"
-    argv = [sys.executable, "-m", "cocobench_agents.cli", "run", "--suite", "cocobench-240",
-            "--limit", "40", "--model", "random", "--jobs", "1", "--out", str(out)]
-    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     results = out / "results.jsonl"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not (
-            results.exists() and len(results.read_text().splitlines()) >= 3):
-        time.sleep(0.02)
-    process.send_signal(signal.SIGINT)
-    _, err = process.communicate(timeout=120)
-    assert process.returncode == 130
-    assert "Traceback" not in err
-    assert f"cocobench run --out {out} --resume" in err
-    kept = len(results.read_text().splitlines())
-    assert 3 <= kept < 40
-    resumed = subprocess.run([sys.executable, "-m", "cocobench_agents.cli", "run", "--out",
-                              str(out), "--resume"], capture_output=True, text=True, timeout=300)
+    with FakeOpenAI() as model:
+        model.program(*[ok("REASON: go\nACTION: 1")] * FINISHED,
+                      default=ok("REASON: go\nACTION: 1", delay_s=HELD_S))
+        argv = [sys.executable, "-m", "cocobench_agents.cli", "run", "--suite", "cocobench-240",
+                "--limit", str(CTRL_C_EPISODES), "--model", "openai/fake-model", "--api-base",
+                model.base_url, "--no-preflight", "--max-steps", "1", "--jobs", "1",
+                "--out", str(out)]
+        process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                   text=True)
+        # The run cannot finish while the model holds a call: wait for that call and for the
+        # finished episodes' lines, however slow the machine.
+        deadline = time.monotonic() + 120
+        while not (model.count > FINISHED and results.exists()
+                   and len(results.read_text().splitlines()) == FINISHED):
+            assert process.poll() is None, "the run ended before its held model call"
+            assert time.monotonic() < deadline, "the run never reached its held model call"
+            time.sleep(0.02)
+        process.send_signal(signal.SIGINT)
+        try:
+            _, err = process.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            pytest.fail("Ctrl-C with a model call in flight did not stop the run in 120 s")
+        assert process.returncode == 130, err
+        assert "Traceback" not in err
+        assert f"cocobench run --out {out} --resume" in err
+        assert len(results.read_text().splitlines()) == FINISHED
+
+        model.program(default=ok("REASON: go\nACTION: 1"))  # releases the held call
+        resumed = subprocess.run([sys.executable, "-m", "cocobench_agents.cli", "run", "--out",
+                                  str(out), "--resume"], capture_output=True, text=True,
+                                 timeout=300)
     assert resumed.returncode == 0, resumed.stderr
-    assert len(results.read_text().splitlines()) == 40
+    assert len(results.read_text().splitlines()) == CTRL_C_EPISODES

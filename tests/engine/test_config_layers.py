@@ -96,12 +96,21 @@ def test_a_bad_flag_or_variable_names_itself(tmp_path, capsys, monkeypatch):
     assert not Path(out).exists()
 
 
-def test_the_printed_config_runs_the_same_run(tmp_path, capsys):
-    flags = [*RUN, "--conditions", "C0_image,D1_blind", "--max-steps", "3", "--limit", "2",
+@pytest.mark.parametrize("choice, written, left_out", [
+    (["--conditions", "C0_image,D1_blind"], {"conditions": ["C0_image", "D1_blind"]},
+     {"planners", "obs_modes"}),
+    (["--planner", "centralized", "--planner", "leader-worker", "--obs", "blind"],
+     {"planners": ["centralized", "leader-worker"], "obs_modes": ["blind"]}, {"conditions"}),
+])
+def test_the_printed_config_runs_the_same_run(tmp_path, capsys, choice, written, left_out):
+    flags = [*RUN, *choice, "--max-steps", "3", "--limit", "2",
              "--agent-model", "agent_2=random:1", "--temperature", "none"]
     assert main([*flags, "--out", str(tmp_path / "flags"), "--print-config"]) == 0
     config = tmp_path / "sweep.yaml"
     config.write_text(capsys.readouterr().out)
+    printed = yaml.safe_load(config.read_text())
+    # one form of the planner × observation choice: the one the request uses
+    assert {k: printed[k] for k in written} == written and not left_out & printed.keys()
     assert not (tmp_path / "flags").exists()  # printing writes nothing
     assert main([*flags, "--out", str(tmp_path / "flags")]) == 0
     assert main(["run", "--config", str(config), "--out", str(tmp_path / "file")]) == 0

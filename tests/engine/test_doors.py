@@ -110,6 +110,9 @@ def test_a_dry_run_calls_nothing_and_bounds_the_real_run(tmp_path, capsys):
     assert row["episodes"] == 1 and 0 < len(bodies) <= row["max_calls"] == 3
     counted = litellm.token_counter(model="gpt-4o-mini", messages=bodies[0]["messages"])
     assert counted == row["prompt_tokens"]
+    [episode] = estimate["episodes"]
+    assert episode == {"model": "openai/gpt-4o-mini", "condition": "C0_blind", "arm": None,
+                       "task_id": episode["task_id"], "epoch": 0, "prompt_tokens": counted}
     assert estimate["total"]["cost_usd"]["low"] <= estimate["total"]["cost_usd"]["high"]
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import textwrap
 import time
 from pathlib import Path
 
@@ -40,6 +41,8 @@ DEMO = load_tasks("demo")  # 4 instances: one of 3 agents, three of 2; budgets 3
 G_D1 = next(c for c in DEMO if c.cell == "G_D1")
 THREE_AGENTS = next(c for c in DEMO if c.agent_count == 3)
 USER_PLANNER = str(Path(__file__).parents[1] / "planners" / "user_planner.py") + ":ONE_NODE"
+FIRST_COME = str(Path(__file__).parents[2] / "examples" / "strategies" / "first_come.py"
+                 ) + ":FIRST_COME"
 PRICED = "gpt-4o-mini"  # priced in the cost map LiteLLM ships
 UNPRICED = "openai/my-local-model"
 C0_IMAGE, C0_BLIND = Condition("centralized", "image"), Condition("centralized", "blind")
@@ -121,6 +124,42 @@ def test_a_planner_of_the_users_own_is_bounded_by_agents_times_budget_and_marked
     assert mine.assumed and not c0.assumed
     assert mine.max_calls == sum(c.difficulty.step_budget * c.agent_count for c in DEMO)
     assert mine.prompt_tokens == c0.prompt_tokens  # asked as C0 asks: the team's prompt
+
+
+def test_a_broadcasting_plugin_is_counted_as_d1_for_the_same_prompts():
+    # examples/strategies/first_come.py declares loop="round", prompt="agent", broadcast=True
+    (mine,) = planner_conditions([FIRST_COME], ["blind"])
+    result = estimate(plan([PRICED], [mine, D1_BLIND]), ModelSettings())
+    first_come, d1 = result.rows
+    assert first_come.prompt_tokens == d1.prompt_tokens  # the board counted, as D1's
+    assert (first_come.max_calls, first_come.assumed) == (d1.max_calls, False)
+
+
+def test_a_spec_without_a_loop_keeps_the_assumed_bound_but_counts_its_board(tmp_path):
+    # claim-board's shape: broadcasts, may ask an agent twice a round (no loop declared)
+    source = Path(FIRST_COME.rpartition(":")[0]).read_text()
+    undeclared = source.replace('    loop="round",', "    loop=None,")
+    (tmp_path / "undeclared.py").write_text(undeclared)
+    (mine,) = planner_conditions([f"{tmp_path / 'undeclared.py'}:FIRST_COME"], ["blind"])
+    d0_blind = Condition("decentralized", "blind")
+    result = estimate(plan([PRICED], [mine, D1_BLIND, d0_blind]), ModelSettings())
+    first_come, d1, d0 = result.rows
+    assert first_come.assumed and first_come.max_calls == d0.max_calls
+    assert first_come.prompt_tokens == d1.prompt_tokens > d0.prompt_tokens
+
+
+def test_a_step_loop_of_agent_prompts_counts_agent_1s_prompt_once_per_step(tmp_path):
+    # the guide's round_robin, declared: one robot's own prompt per landed step
+    fixture = Path(USER_PLANNER.rpartition(":")[0]).read_text()
+    (tmp_path / "rr.py").write_text(fixture + textwrap.dedent("""
+        ROUND_ROBIN = PlannerSpec("rr", "RR", build_one_node, True, True, "turns",
+                                  loop="step", prompt="agent")
+    """))
+    (mine,) = planner_conditions([f"{tmp_path / 'rr.py'}:ROUND_ROBIN"], ["blind"])
+    result = estimate(plan([PRICED], [mine], [G_D1]), ModelSettings())
+    (rr,) = result.rows
+    assert rr.prompt_tokens == count(PRICED, first_prompt(G_D1, agent="agent_1", obs="blind"))
+    assert (rr.max_calls, rr.assumed) == (G_D1.difficulty.step_budget, False)
 
 
 def test_the_first_round_is_the_requests_a_client_would_send_in_order():
@@ -222,7 +261,7 @@ def test_to_json_is_exactly_the_documented_object():
     result = estimate(plan([PRICED], [C0_BLIND], arms=arms), ModelSettings(),
                       max_cost_usd=0.5)
     document = json.loads(json.dumps(result.to_json()))
-    assert set(document) == {"rows", "total", "token_counters", "max_cost_usd"}
+    assert set(document) == {"rows", "total", "token_counters", "max_cost_usd", "episodes"}
     cost_keys = {"low", "high"}
     for r in document["rows"]:
         assert set(r) == {"model", "condition", "arm", "episodes", "max_calls",
@@ -237,8 +276,32 @@ def test_to_json_is_exactly_the_documented_object():
     hinted, plain = document["rows"]
     assert plain["prompt_tokens"] < hinted["prompt_tokens"]
 
+    assert [(e["arm"], e["task_id"]) for e in document["episodes"]] == [
+        (arm, c.task_id) for arm in arms for c in DEMO]
+    for e in document["episodes"]:
+        assert set(e) == {"model", "condition", "arm", "task_id", "epoch", "prompt_tokens"}
+
     single = estimate(plan(["greedy"], [C0_BLIND], [G_D1]), ModelSettings()).to_json()
     assert single["rows"][0]["arm"] is None and single["max_cost_usd"] is None
+    assert single["episodes"][0]["arm"] is None
+
+
+def test_every_episode_has_its_first_prompt_tokens_and_a_row_sums_them():
+    conditions = [C0_BLIND, D1_BLIND, ORACLE]
+    episodes = plan_episodes(list(DEMO), ["greedy"], conditions, 2, RunOptions())
+    result = estimate(episodes, ModelSettings())
+    assert len(result.episodes) == len(conditions) * len(DEMO) * 2
+    for r in result.rows:
+        mine = [e for e in result.episodes if (e.model, e.condition) == (r.model, r.condition)]
+        assert len(mine) == r.episodes and sum(e.prompt_tokens for e in mine) == r.prompt_tokens
+    by_episode = {(e.condition, e.task_id, e.epoch): e.prompt_tokens for e in result.episodes}
+    team = import_litellm().token_counter(messages=first_prompt(G_D1, obs="blind",
+                                                                images=False))
+    assert by_episode["C0_blind", G_D1.task_id, 0] == by_episode["C0_blind", G_D1.task_id, 1]
+    assert by_episode["C0_blind", G_D1.task_id, 1] == team  # the episode's own, not a share
+    assert all(by_episode["OR_image", c.task_id, 0] == 0 for c in DEMO)
+    assert by_episode["D1_blind", THREE_AGENTS.task_id, 0] > by_episode[
+        "C0_blind", THREE_AGENTS.task_id, 0]  # three agents' prompts against one
 
 
 def test_the_spend_limit_is_compared_with_both_bounds():

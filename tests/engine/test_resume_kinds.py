@@ -45,6 +45,7 @@ def changes(tmp_path: Path, listener: str) -> dict[str, object]:
         "ray_address": ("executor", "ray", listener), "thor_gpus_per_worker": 0.5,
         "ray_wait": 30.0,
         "max_cost": 10.0, "max_total_tokens": 1_000_000, "episode_timeout": 60.0,
+        "episode_memory": 512.0, "stall_timeout": 30.0,
         "preflight": False,
         "out": None,  # the run folder is what is resumed: another one is another run
     }
@@ -67,8 +68,13 @@ def recorded(tmp_path_factory) -> RunRequest:
     return request
 
 
-@pytest.mark.parametrize("path", [p for p, _ in iter_fields() if p != ("out",)],
-                         ids=lambda p: ".".join(p))
+#: The rows whose changed request resumes on the Ray executor (a real local Ray).
+ON_RAY = ("executor", "ray_address", "thor_gpus_per_worker")
+
+
+@pytest.mark.parametrize("path", [
+    pytest.param(p, id=".".join(p), marks=[pytest.mark.needs_ray] if p[-1] in ON_RAY else [])
+    for p, _ in iter_fields() if p != ("out",)])
 def test_a_resume_refuses_or_accepts_a_change_as_marked(path, recorded, tmp_path, listener):
     value = changes(tmp_path, listener)[path[-1]]
     flat = {path[-1]: value}

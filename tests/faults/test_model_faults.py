@@ -6,7 +6,10 @@ and the run exits 1 naming the command that retries it; a failing pre-flight cal
 before anything is written (exit 2, the provider's message); a text-only model under an image
 condition is caught by the pre-flight; the cache is keyed per endpoint and transport, and a
 reused reply (cache or replay) is billed 0 with its original cost kept as "saved"; a cache
-that cannot be written loses no reply.
+that cannot be written loses no reply. Issue 26: an input the model does not take is never
+retried and, without the pre-flight, stops the run naming its cause and its fix; an occupied
+run folder, or a resume at its spend limit, is refused with no call at all; a remote model
+sent no temperature is told once on the console and under the summary.
 """
 
 from __future__ import annotations
@@ -27,6 +30,9 @@ KEY_ENV = "FAKE_PROVIDER_API_KEY"
 DONE = "REASON: nothing left to do\nACTION: DONE"
 NO_IMAGES = error(400, "Image input is not supported by this model",
                   err_type="invalid_request_error")
+# llama.cpp's server without its --mmproj answers an image with a 500, worded so:
+LLAMA_NO_IMAGES = error(500, "image input is not supported - hint: if this is unexpected, you "
+                        "may need to provide the mmproj")
 MISSING = error(404, "The model `missing` does not exist", code="model_not_found",
                 err_type="invalid_request_error")
 
@@ -38,12 +44,13 @@ class Provider(FakeOpenAI):
     def __init__(self) -> None:
         super().__init__(ok(DONE))
         self.behaviours: dict[str, Behaviour] = {}
+        self.image_refusal = NO_IMAGES  # how ``text-only`` refuses an image
 
     def _next(self, body: dict[str, Any], headers: dict[str, str]) -> Behaviour:
         super()._next(body, headers)
         name = body.get("model", "")
         if name == "text-only" and _has_image(body):
-            return NO_IMAGES
+            return self.image_refusal
         return self.behaviours.get(name, self.default)
 
 
@@ -64,6 +71,7 @@ def server(provider: Provider, monkeypatch, tmp_path):
     monkeypatch.setenv(KEY_ENV, "sk-fake-model-faults-0001")
     monkeypatch.chdir(tmp_path)  # no .env of the checkout
     provider.behaviours.clear()
+    provider.image_refusal = NO_IMAGES
     return provider.program(default=ok(DONE))
 
 
@@ -159,6 +167,62 @@ def test_the_preflight_catches_a_text_only_model_under_an_image_condition(
     assert code == 0
 
 
+@pytest.mark.parametrize("refusal", [NO_IMAGES, LLAMA_NO_IMAGES], ids=["400", "llama.cpp-500"])
+def test_an_image_refused_by_a_text_only_model_is_not_retried(
+        server, transport, tmp_path, capsys, refusal):
+    server.image_refusal = refusal
+    out = tmp_path / "image"
+    code, _, stderr = cocobench(server, transport, out, "--model", "openai/text-only",
+                                "--obs", "image", "--max-retries", "2", capsys=capsys)
+    assert code == 2
+    assert "unsupported_input" in stderr and refusal.body["error"]["message"] in stderr
+    assert "attempts" not in stderr and not out.exists()
+    # the pre-flight's one call with an image: a permanent error is not retried
+    assert sum(map(_has_image, server.requests)) == 1
+
+
+def test_without_the_preflight_a_refused_image_stops_the_run_naming_its_cause(
+        server, transport, tmp_path, capsys):
+    server.image_refusal = LLAMA_NO_IMAGES
+    out = tmp_path / "image"
+    code, _, stderr = cocobench(server, transport, out, "--model", "openai/text-only",
+                                "--obs", "image", "--no-preflight", "--jobs", "1",
+                                capsys=capsys)
+    assert code == 1 and "Traceback" not in stderr
+    # the last line: the cause, what to fix, and the command that completes the run
+    message = stderr.strip().splitlines()[-1]
+    assert "openai/text-only: the model does not take the input sent" in message
+    assert "image input is not supported" in message and "--mmproj" in message
+    assert f"cocobench run --out {out} --resume --retry-errors" in message
+    # the image's one call failed, not retried, and no episode started after it
+    assert sum(map(_has_image, server.requests)) == 1
+    assert results(out)[-1]["terminal_reason"] == "backend_error"
+    assert len(results(out)) < 4
+
+
+def test_an_occupied_run_folder_is_refused_before_any_call(server, transport, tmp_path,
+                                                           capsys):
+    out = tmp_path / "run"
+    assert cocobench(server, transport, out, "--model", "openai/healthy", capsys=capsys)[0] == 0
+    server.program()
+    code, _, stderr = cocobench(server, transport, out, "--model", "openai/healthy",
+                                capsys=capsys)
+    assert code == 2 and "already holds a run" in stderr
+    assert server.count == 0  # not even the pre-flight
+
+
+def test_a_resume_already_at_its_spend_limit_calls_nothing(server, transport, tmp_path,
+                                                           capsys):
+    out = tmp_path / "run"
+    limited = ("--model", "openai/healthy", "--max-total-tokens", "1", "--jobs", "1")
+    code, _, stderr = cocobench(server, transport, out, *limited, capsys=capsys)
+    assert code == 3 and "spend limit reached" in stderr  # after the first episode
+    server.program()
+    code, _, stderr = cocobench(server, transport, out, *limited, "--resume", capsys=capsys)
+    assert code == 3 and "spend limit reached" in stderr
+    assert server.count == 0  # not even the pre-flight
+
+
 def test_no_preflight_for_builtins_or_a_finished_run(server, transport, tmp_path, capsys):
     out = tmp_path / "run"
     assert cocobench(server, transport, out, "--model", "openai/healthy", capsys=capsys)[0] == 0
@@ -170,6 +234,37 @@ def test_no_preflight_for_builtins_or_a_finished_run(server, transport, tmp_path
     assert cocobench(server, transport, tmp_path / "greedy", "--model", "greedy",
                      capsys=capsys)[0] == 0
     assert server.count == 0
+
+
+# -- sampling left to the provider -------------------------------------------------------------
+
+def test_unset_sampling_is_told_once_on_the_console_and_in_the_summary(
+        server, transport, tmp_path, capsys):
+    code, stdout, stderr = cocobench(server, transport, tmp_path / "auto", "--model",
+                                     "openai/qwen-local", capsys=capsys)
+    assert code == 0
+    assert all("temperature" not in body for body in server.requests)
+    told = ("sampling is unset for openai/qwen-local: no temperature is sent (--temperature "
+            "auto sends 0 only to gpt/o1/o3/o4 names)")
+    assert stderr.count(told) == 1 and f"note: {told}" in stdout
+    assert "--temperature 0 fixes it" in stdout
+
+    server.program()
+    code, stdout, stderr = cocobench(server, transport, tmp_path / "fixed", "--model",
+                                     "openai/qwen-local", "--temperature", "0", capsys=capsys)
+    assert code == 0 and all(body["temperature"] == 0 for body in server.requests)
+    assert "sampling is unset" not in stdout + stderr
+
+
+@pytest.mark.parametrize("args", [("--model", "openai/gpt-4o-mini"),
+                                  ("--model", "openai/qwen-local", "--extra",
+                                   '{"temperature": 0.2}'),
+                                  ("--model", "greedy")], ids=["auto-gpt", "extra", "builtin"])
+def test_no_sampling_notice_when_the_temperature_is_set_or_nothing_samples(
+        server, transport, tmp_path, capsys, args):
+    code, stdout, stderr = cocobench(server, transport, tmp_path / "run", *args,
+                                     capsys=capsys)
+    assert code == 0 and "sampling is unset" not in stdout + stderr
 
 
 # -- the cache and replays --------------------------------------------------------------------

@@ -24,7 +24,6 @@ from benchmark_adapter.sim.thor import ThorController, ThorOptions, environment
 from benchmark_adapter.sim.thor.environment import Renderers
 from benchmark_adapter.sim.thor.pool import POOL, ControllerPool
 from benchmark_adapter.tasks import TaskConfig, load_task
-from tests.thor.fake_unity import META_ACTIONS, SceneLibrary, fake_factory
 
 CONTROL_VARIABLE = "COCOBENCH_TEST_FAKE_UNITY"
 UNITY_EXITED = "Unity exited"
@@ -42,6 +41,8 @@ class Crash(dict):
         self.held: Path | None = None  # where a held episode says which node holds it
 
     def __contains__(self, action: object) -> bool:
+        from tests.thor.fake_unity import META_ACTIONS  # needs ai2thor: imported on use
+
         if self.armed is None or action in META_ACTIONS or action == "Initialize":
             return False
         if self.armed == "exit":
@@ -65,6 +66,9 @@ def fake_thor_backend(control: Path, pool: ControllerPool = POOL
     start: list[Callable[..., Any]] = []  # the fake Unity, made on first use
 
     def factory(options: ThorOptions, scene: str, init: Any) -> Any:
+        # The fake Unity needs ai2thor: imported on use, so that the Ray tests load without it.
+        from tests.thor.fake_unity import SceneLibrary, fake_factory
+
         if not start:
             library = SceneLibrary()
             for path in json.loads((control / "tasks.json").read_text()):

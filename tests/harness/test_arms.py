@@ -4,7 +4,6 @@ one suite keeps the folders and result lines it had before arms existed."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -216,8 +215,7 @@ def test_planner_arms_are_conditions(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("executor", [
     ("--workers", "2", "--jobs", "4"),
-    pytest.param(("--executor", "ray", "--jobs", "2"), marks=pytest.mark.skipif(
-        not importlib.util.find_spec("ray"), reason="the ray extra is not installed")),
+    pytest.param(("--executor", "ray", "--jobs", "2"), marks=pytest.mark.needs_ray),
 ], ids=["workers", "ray"])
 def test_other_executors_record_what_one_process_records(two_suites, tmp_path, executor):
     out = tmp_path / "run"

@@ -28,14 +28,13 @@ def server():
 
 
 EXECUTORS = [["--workers", "1"], ["--workers", "2"],
-             pytest.param(["--executor", "ray", "--workers", "1"], marks=pytest.mark.slow)]
+             pytest.param(["--executor", "ray", "--workers", "1"],
+                          marks=[pytest.mark.slow, pytest.mark.needs_ray])]
 
 
 @pytest.mark.parametrize("executor", EXECUTORS, ids=["local", "workers", "ray"])
 def test_a_token_limit_stops_new_episodes_and_resume_completes(tmp_path, capsys, server,
                                                                executor):
-    if "ray" in executor:
-        pytest.importorskip("ray", reason="the ray extra is not installed (CI installs it)")
     out = tmp_path / "run"
     argv = [*RUN, "--api-base", server.base_url, *executor, "--out", str(out)]
     assert main([*argv, "--max-total-tokens", "40"]) == 3
@@ -60,12 +59,9 @@ def test_a_cost_limit_counts_what_the_folder_already_spent(tmp_path, capsys):
     assert "$5.0000 of --max-cost 1" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("executor", [[], pytest.param(["--executor", "ray"],
-                                                     marks=pytest.mark.slow)],
-                         ids=["local", "ray"])
+@pytest.mark.parametrize("executor", [[], pytest.param(["--executor", "ray"], marks=[
+    pytest.mark.slow, pytest.mark.needs_ray])], ids=["local", "ray"])
 def test_a_runaway_episode_ends_as_an_infrastructure_error(tmp_path, server, executor):
-    if executor:
-        pytest.importorskip("ray", reason="the ray extra is not installed (CI installs it)")
     server.program(default=ok("REASON: slow\nACTION: 1", delay_s=1.0))
     out = tmp_path / "run"
     code = main([*RUN, "--limit", "1", "--max-steps", "20", "--api-base", server.base_url,

@@ -15,8 +15,6 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("ray", reason="the ray extra is not installed: pip install '.[ray]'")
-
 from benchmark_adapter.sim import backends
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import load_task, load_tasks
@@ -38,9 +36,9 @@ from tests.paths import SHARED_TASKS
 
 ROOT = Path(__file__).resolve().parents[2]
 THOR_TASKS = sorted(SHARED_TASKS.glob("*.json"))[:4]
-needs_thor = pytest.mark.skipif(
-    not THOR_TASKS or not __import__("importlib").util.find_spec("ai2thor"),
-    reason="needs ai2thor (the thor extra) and the shared CoCoBench task configs")
+needs_thor_tasks = pytest.mark.skipif(
+    not THOR_TASKS, reason=f"shared CoCoBench task configs not found at {SHARED_TASKS}")
+pytestmark = pytest.mark.needs_ray
 
 
 @pytest.fixture(scope="module")
@@ -283,7 +281,8 @@ def thor_reference(control, tmp_path_factory) -> dict:
     return reference
 
 
-@needs_thor
+@pytest.mark.needs_thor
+@needs_thor_tasks
 @pytest.mark.slow
 def test_ai2thor_workers_equal_a_local_run(ray_cluster, thor_reference, tmp_path):
     shapes = []
@@ -295,7 +294,8 @@ def test_ai2thor_workers_equal_a_local_run(ray_cluster, thor_reference, tmp_path
     assert episodes(folder) == thor_reference
 
 
-@needs_thor
+@pytest.mark.needs_thor
+@needs_thor_tasks
 @pytest.mark.slow
 def test_a_dead_unity_or_worker_costs_one_rerun_and_a_second_death_an_error(
         ray_cluster, thor_reference, control, tmp_path):
@@ -318,7 +318,8 @@ def test_a_dead_unity_or_worker_costs_one_rerun_and_a_second_death_an_error(
         k: v for k, v in thor_reference.items() if k[2] != always}
 
 
-@needs_thor
+@pytest.mark.needs_thor
+@needs_thor_tasks
 @pytest.mark.slow
 def test_workers_on_a_node_without_a_renderer_stop_the_run_before_any_episode(
         ray_cluster, control, tmp_path):

@@ -17,9 +17,6 @@ from cocobench_agents.cli import main
 from cocobench_agents.harness.ray_local import children_of
 from tests.harness.test_resume import RUN, cocobench, episodes, start_and_wait_for_results
 
-needs_ray = pytest.mark.skipif(
-    not __import__("importlib").util.find_spec("ray"),
-    reason="the ray extra is not installed: pip install '.[ray]'")
 RAY = ("--executor", "ray", "--jobs", "2")
 TOTAL = 24  # the demo suite × all six conditions
 
@@ -80,7 +77,7 @@ def wait_for_ray_workers(process: subprocess.Popen, count: int = 2) -> dict[int,
     return process_tree(process.pid)
 
 
-@needs_ray
+@pytest.mark.needs_ray
 @pytest.mark.slow
 @pytest.mark.parametrize("stop", [signal.SIGKILL, signal.SIGINT], ids=["sigkill", "ctrl-c"])
 def test_a_stopped_ray_run_leaves_nothing_behind_and_resumes(reference_run, tmp_path, stop):
@@ -102,7 +99,7 @@ def test_a_stopped_ray_run_leaves_nothing_behind_and_resumes(reference_run, tmp_
     assert without_nodes(episodes(out)) == episodes(reference_run)
 
 
-@needs_ray
+@pytest.mark.needs_ray
 @pytest.mark.slow
 def test_a_finished_ray_run_records_its_executor_and_leaves_nothing(tmp_path):
     out = tmp_path / "whole"
@@ -134,7 +131,7 @@ def test_a_missing_ray_names_the_extra_to_install(tmp_path, capsys, monkeypatch)
     assert not (tmp_path / "r").exists()
 
 
-@needs_ray
+@pytest.mark.needs_ray
 def test_an_address_where_no_cluster_answers_is_a_quick_usage_error(tmp_path):
     started = time.monotonic()
     done = cocobench(tmp_path / "r", "--executor", "ray", "--ray-address", "127.0.0.1:9")

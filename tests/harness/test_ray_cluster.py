@@ -25,8 +25,6 @@ from typing import Any
 
 import pytest
 
-pytest.importorskip("ray", reason="the ray extra is not installed: pip install '.[ray]'")
-
 from benchmark_adapter.sim import backends
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import load_task, load_tasks
@@ -55,9 +53,9 @@ NODE_GONE_S = 60  # Ray declares a killed node dead after about 15 s (its health
 NOT_COMPARED = ("elapsed_s", "latency_s", "model_latency_s",  # timing
                 "node", "requeued")  # where a Ray run ran an episode
 THOR_TASKS = sorted(SHARED_TASKS.glob("*.json"))[:4]
-needs_thor = pytest.mark.skipif(
-    not THOR_TASKS or not __import__("importlib").util.find_spec("ai2thor"),
-    reason="needs ai2thor (the thor extra) and the shared CoCoBench task configs")
+needs_thor_tasks = pytest.mark.skipif(
+    not THOR_TASKS, reason=f"shared CoCoBench task configs not found at {SHARED_TASKS}")
+pytestmark = pytest.mark.needs_ray
 
 
 @contextlib.contextmanager
@@ -354,7 +352,8 @@ def control(tmp_path_factory) -> Path:
     return folder
 
 
-@needs_thor
+@pytest.mark.needs_thor
+@needs_thor_tasks
 @pytest.mark.slow
 def test_a_lost_gpu_nodes_episode_reruns_on_another(cluster, control, tmp_path):
     pool = ControllerPool(install_exit_hooks=False)

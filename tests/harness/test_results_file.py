@@ -160,11 +160,17 @@ def test_every_prompt_is_kept_and_read_back(run):
             text = folder.prompt(key, decision["prompt_hash"])
             assert text is not None
             assert prompt_hash(text) == decision["prompt_hash"]  # the very text sent
+            assert folder.prompt(row, decision["prompt_hash"]) == text  # by its result line
         assert set(prompts) == {d["prompt_hash"] for d in calls}
         sizes["prompts"] += (run / Path(row["trajectory"]).parent / "prompts.json.gz"
                              ).stat().st_size
         sizes["trajectories"] += (run / row["trajectory"]).stat().st_size
     assert sizes["prompts"] < sizes["trajectories"] / 20
+
+
+def test_prompts_of_something_not_a_result_line_are_refused_by_name(run):
+    with pytest.raises(TypeError, match=r"an EpisodeKey or a result line .*KeyError: 'task_id'"):
+        RunFolder(run).prompts({"model": "greedy", "condition": "C0_image"})
 
 
 def test_a_folder_without_prompts_still_scores_reports_and_resumes(run, capfd):

@@ -1,12 +1,16 @@
-"""Worker processes: a worker that dies is reported, loses only its unfinished episodes, and
-the folder stays whole for --resume; the jobs and per-model limits are shared out."""
+"""Worker processes: episodes are pulled from one queue; a worker that dies is replaced and
+its episodes run again alone; a runaway episode (memory, a loop that never yields) is
+stopped and recorded naming the cause while the rest of the run goes on."""
 
 from __future__ import annotations
 
-import asyncio
+import json
 import multiprocessing
 import os
 import signal
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -15,14 +19,15 @@ from cocobench_agents.harness import (
     Condition,
     RunFolder,
     RunOptions,
-    WorkerError,
-    execute,
     execute_in_workers,
-    pending_episodes,
     plan_episodes,
 )
-from cocobench_agents.harness.workers import _share_settings, share
-from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.harness.runaway import RunawayLimits
+from cocobench_agents.harness.workers import share
+from cocobench_agents.models import ModelSettings
+from tests.harness.runaway_planners import RUNAWAY_TASK, SLOW_TASK
+
+PLANTED = Path(__file__).with_name("runaway_planners.py")
 
 
 def plan():
@@ -31,7 +36,7 @@ def plan():
                          2, RunOptions())
 
 
-def test_a_dead_worker_is_reported_and_the_rest_is_kept(tmp_path):
+def test_a_killed_worker_is_replaced_and_its_episodes_run_again(tmp_path):
     planned = plan()
     folder = RunFolder(tmp_path / "run")
     folder.create({"name": "dies"})
@@ -43,23 +48,86 @@ def test_a_dead_worker_is_reported_and_the_rest_is_kept(tmp_path):
             os.kill(victim.pid, signal.SIGKILL)
             killed.append(victim.name)
 
-    with pytest.raises(WorkerError, match="--resume") as info:
-        execute_in_workers(planned, folder, ModelSettings(), jobs=2, workers=2,
-                           on_result=kill_a_worker)
-    assert killed[0] in str(info.value) and "exit code -9" in str(info.value)
-    kept = list(folder.results())
-    assert 1 <= len(kept) < len(planned)
+    execute_in_workers(planned, folder, ModelSettings(), jobs=4, workers=2,
+                       on_result=kill_a_worker)
+    records = list(folder.results())
+    keys = {(r["condition"], r["task_id"], r["epoch"]) for r in records}
+    assert len(keys) == len(planned) == len(records)  # every episode once, none lost
+    assert not any(r.get("infra_error") for r in records)
+    # What the killed worker had in flight ran again (alone), and says so.
+    assert any(r.get("requeued") == 1 for r in records)
     assert multiprocessing.active_children() == []
-
-    todo = pending_episodes(planned, folder, retry_errors=False)
-    assert len(todo) == len(planned) - len(kept)
-    asyncio.run(execute(todo, folder, ModelPool(), jobs=4))
-    keys = {(r["condition"], r["task_id"], r["epoch"]) for r in folder.results()}
-    assert len(keys) == len(planned) == len(list(folder.results()))
 
 
 def test_jobs_and_model_limits_are_shared_out():
     assert [share(10, i, 3) for i in range(3)] == [4, 3, 3]
     assert [share(1, i, 2) for i in range(2)] == [1, 1]  # never below one
-    settings = ModelSettings(max_concurrency=16)
-    assert [_share_settings(settings, i, 2).max_concurrency for i in range(2)] == [8, 8]
+
+
+def test_a_slow_episode_holds_back_only_itself(tmp_path):
+    """Pulled, not dealt: while one worker (one slot each) waits on the slow episode, the
+    other takes every other episode (dealt in turn, longest first, the slow one's worker
+    would also have had the third)."""
+    out = tmp_path / "run"
+    result = _cocobench("run", "--suite", "demo", "--planner", f"{PLANTED}:slow",
+                        "--model", "greedy", "--workers", "2", "--jobs", "2",
+                        "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    order = [r["task_id"] for r in _results(out)]
+    assert sorted(order) == sorted(t.task_id for t in load_tasks("demo"))
+    assert order[-1] == SLOW_TASK
+
+
+RUNAWAYS = [("hog", ["--episode-memory", "300"], "memory"),
+            ("spin", ["--stall-timeout", "3"], "stalled")]
+EXECUTORS = [pytest.param(["--workers", "1"], id="1-worker"),
+             pytest.param(["--workers", "2"], id="2-workers"),
+             pytest.param(["--executor", "ray", "--workers", "2"], id="ray",
+                          marks=pytest.mark.needs_ray)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("executor", EXECUTORS)
+@pytest.mark.parametrize(("planner", "limit", "cause"), RUNAWAYS)
+def test_a_runaway_is_recorded_by_cause_and_the_run_goes_on(tmp_path, executor, planner,
+                                                            limit, cause):
+    out = tmp_path / "run"
+    result = _cocobench("run", "--suite", "demo", "--planner", f"{PLANTED}:{planner}",
+                        "--model", "greedy", "--jobs", "4", *executor, *limit,
+                        "--out", str(out))
+    assert result.returncode == 1, result.stderr
+    assert "--resume --retry-errors" in result.stderr
+    assert f"stopped as runaways: 1 {cause}" in result.stderr
+    records = {r["task_id"]: r for r in _results(out)}
+    assert len(records) == 4  # the other episodes are all recorded
+    runaway = records.pop(RUNAWAY_TASK)
+    assert runaway["infra_error"].startswith(f"{cause}: ")
+    assert f"ERROR {cause}: " in result.stdout + result.stderr
+    assert not any(r.get("infra_error") for r in records.values())
+
+    # --retry-errors runs it again (and it runs away again: recorded again, not hung).
+    again = _cocobench("run", "--out", str(out), "--resume", "--retry-errors")
+    assert again.returncode == 1, again.stderr
+    latest = [r for r in _results(out) if r["task_id"] == RUNAWAY_TASK]
+    assert len(latest) == 2 and latest[-1]["infra_error"].startswith(f"{cause}: ")
+
+
+def test_the_limits_say_what_stopped_a_worker():
+    limits = RunawayLimits(episode_memory_mb=100, stall_s=5)
+    mb = 1 << 20
+    assert limits.breach(grown_bytes=150 * mb, in_flight=2, silent_s=0) is None
+    assert limits.breach(grown_bytes=250 * mb, in_flight=2, silent_s=0) == "memory"
+    assert limits.breach(grown_bytes=None, in_flight=1, silent_s=6) == "stalled"
+    assert limits.breach(grown_bytes=0, in_flight=0, silent_s=60) is None  # idle: no stall
+    assert limits.error("memory").startswith("memory: ")
+    assert "--stall-timeout" in limits.error("stalled")
+
+
+def _cocobench(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "cocobench_agents.cli", *args],
+                          capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "NO_COLOR": "1"})
+
+
+def _results(out: Path) -> list[dict]:
+    return [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]

@@ -22,11 +22,6 @@ FAKE_KEY_ENV = "FAKE_PROVIDER_API_KEY"
 FAKE_KEY = "sk-test-should-not-leak"
 
 
-def pytest_configure(config: pytest.Config) -> None:
-    # Registered here too so the marker is known even before pyproject.toml lists it.
-    config.addinivalue_line("markers", "llm: needs a real local LLM server (xllamacpp + SmolLM2)")
-
-
 @pytest.fixture(scope="session")
 def fake_server() -> Iterator[FakeOpenAI]:
     """One fake OpenAI server for the session (tests reprogram it)."""

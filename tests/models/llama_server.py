@@ -128,9 +128,7 @@ def start_llama_server(
 
 @pytest.fixture(scope="session")
 def llama_server() -> Iterator[LlamaServer]:
-    """A session-wide SmolLM2 llama.cpp server; skips when xllamacpp or the model is missing."""
-    reason = missing_reason()
-    if reason is not None:
-        pytest.skip(reason)
+    """A session-wide SmolLM2 llama.cpp server, for tests marked ``llm`` (they skip, with
+    `missing_reason`, when xllamacpp or the model is missing: tests/conftest.py)."""
     with start_llama_server() as server:
         yield server

@@ -10,7 +10,14 @@ import re
 
 import pytest
 
-from cocobench_agents.models import LiteLLMClient, MenuOption, ModelRequest, ModelSettings
+from cocobench_agents.models import (
+    LiteLLMClient,
+    MenuOption,
+    ModelError,
+    ModelRequest,
+    ModelSettings,
+)
+from cocobench_agents.models.preflight import tiny_png
 
 from .llama_server import LlamaServer
 
@@ -61,3 +68,13 @@ def test_grammar_with_a_message_line(llama_server: LlamaServer):
     assert re.fullmatch(r"REASON: [^\n]+\nACTION: (4|17|23|DONE)(\nMSG: [^\n]+)?", reply.text), (
         reply.text
     )
+
+
+def test_an_image_to_a_text_only_model_is_a_permanent_error(llama_server: LlamaServer):
+    # llama.cpp without --mmproj answers a 500 "image input is not supported": not retried
+    request = ModelRequest(PROMPT, images=(tiny_png(),))
+    with pytest.raises(ModelError) as refused:
+        asyncio.run(client(llama_server, max_retries=2).complete(request))
+    error = refused.value
+    assert (error.kind, error.transient, error.retries) == ("unsupported_input", False, 0)
+    assert "image input is not supported" in error.message

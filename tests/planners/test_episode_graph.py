@@ -6,7 +6,6 @@ from __future__ import annotations
 import asyncio
 import json
 import os
-import shutil
 import signal
 import socket
 import subprocess
@@ -16,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from cocobench_agents.episode_graph import build_episode_graph
+from tests.conftest import LANGGRAPH_CLI
 
 ROOT = Path(__file__).resolve().parents[2]
 TASK = {"task": "G_D1__DemoLivingRoom1__seed0", "suite": "demo", "model": "greedy",
@@ -168,10 +168,8 @@ def _free_port() -> int:
 @pytest.fixture(scope="module")
 def langgraph_server(tmp_path_factory):
     """`langgraph dev` on 127.0.0.1, serving a copy of this repository's langgraph.json (the
-    server writes its state beside the config: in a temporary copy, not the checkout)."""
-    if shutil.which("langgraph") is None:
-        pytest.skip("langgraph-cli[inmem] is not installed (CI installs it)")
-    pytest.importorskip("langgraph_sdk")
+    server writes its state beside the config: in a temporary copy, not the checkout); its
+    tests are marked `needs_langgraph_cli`."""
     work = tmp_path_factory.mktemp("langgraph")
     config = json.loads((ROOT / "langgraph.json").read_text())
     config["dependencies"] = [str(ROOT)]
@@ -181,7 +179,7 @@ def langgraph_server(tmp_path_factory):
     env = {**os.environ, "LANGGRAPH_CLI_NO_ANALYTICS": "1", "LANGSMITH_TRACING": "false"}
     log = (work / "server.log").open("w")
     server = subprocess.Popen(
-        ["langgraph", "dev", "--no-browser", "--host", "127.0.0.1", "--port", str(port),
+        [str(LANGGRAPH_CLI), "dev", "--no-browser", "--host", "127.0.0.1", "--port", str(port),
          "--config", str(work / "langgraph.json"), "--no-reload"],
         cwd=work, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
     url = f"http://127.0.0.1:{port}"
@@ -204,6 +202,7 @@ def langgraph_server(tmp_path_factory):
 
 
 @pytest.mark.slow
+@pytest.mark.needs_langgraph_cli
 def test_langgraph_dev_runs_an_episode_through_the_sdk(langgraph_server):
     from langgraph_sdk import get_client
 
@@ -231,6 +230,7 @@ def test_langgraph_dev_runs_an_episode_through_the_sdk(langgraph_server):
 
 
 @pytest.mark.slow
+@pytest.mark.needs_langgraph_cli
 def test_langgraph_dev_asks_a_human_seat_through_interrupts(langgraph_server):
     from langgraph_sdk import get_client
 

@@ -22,21 +22,7 @@ FIXTURE = Path(__file__).with_name("user_planner.py")
 DEMO = ["--model", "greedy", "--suite", "demo"]
 
 
-@pytest.fixture(autouse=True)
-def fresh_planners():
-    """Each CLI call of a real user is a new process: nothing loaded stays between tests."""
-    forget_user_planners()
-    yield
-    forget_user_planners()
-
-
-@pytest.fixture
-def strategy(tmp_path: Path) -> Path:
-    """The fixture planners, copied where the researcher keeps them."""
-    path = tmp_path / "lab" / "mine.py"
-    path.parent.mkdir()
-    shutil.copy(FIXTURE, path)
-    return path
+pytestmark = pytest.mark.usefixtures("fresh_planners")
 
 
 def results(out: Path) -> list[dict]:
@@ -148,6 +134,8 @@ def test_resume_refuses_a_changed_planner_file_and_keeps_what_was_recorded(strat
     ("{file}:nope", "{file}:nope: 'nope' is not defined there"),
     ("{file}:NOT_A_PLANNER", "NOT_A_PLANNER is of type int, not a PlannerSpec or a function"),
     ("{file}:BAD_CODE", "condition code 'C0' is the built-in centralized's"),
+    ("{file}:BAD_LOOP", "loop 'rounds' is not one of step, round, led-round"),
+    ("{file}:BAD_SHAPE", "loop 'round' asks every agent, so its prompt is 'agent'"),
     ("{file}", "unknown planner"),
     ("{file}:", "expected FILE.py:NAME or package.module:NAME"),
     ("no_such_lab.strategies:build", "planner module 'no_such_lab.strategies' not found"),
@@ -170,7 +158,6 @@ def test_user_code_that_does_not_load_is_one_line_exit_2(strategy, tmp_path, cap
     ("build_wrong_context", "declares context_schema=OtherContext"),
     ("build_never_ends", "did not end; end a step with observe_next"),
     ("build_no_terminal_reason", "ended without a recorded terminal reason"),
-    ("build_crashes", "failed: KeyError: 'agent_9'"),
 ])
 def test_the_check_stops_a_broken_graph_before_any_episode(strategy, tmp_path, capsys, name,
                                                            expected):

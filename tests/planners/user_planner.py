@@ -109,3 +109,31 @@ def build_crashes() -> StateGraph:
     graph.add_edge(START, "crash")
     graph.add_edge("crash", END)
     return graph
+
+
+def seat_of(agent: str) -> int:
+    seats = {"agent_1": 0, "agent_2": 1}  # written for teams of two: agent_3 has no seat
+    return seats[agent]
+
+
+async def seated_step(state: PlannerState, runtime: Runtime[PlannerContext]
+                      ) -> dict[str, Any]:
+    """Seat every agent, then step as one_node does."""
+    [seat_of(agent) for agent in state["agents"]]
+    return await step(state, runtime)
+
+
+def build_crashes_on_three() -> StateGraph:
+    """Passes the check (a team of two), raises in a team of three."""
+    graph = StateGraph(PlannerState, context_schema=PlannerContext)
+    graph.add_node("seated_step", seated_step)
+    graph.add_edge(START, "seated_step")
+    graph.add_conditional_edges("seated_step", continue_or_end("seated_step"),
+                                ["seated_step", END])
+    return graph
+
+
+BAD_LOOP = PlannerSpec("bad-loop", "BL", build_one_node, False, True, "a loop nobody knows",
+                       loop="rounds")
+BAD_SHAPE = PlannerSpec("bad-shape", "BS", build_one_node, False, True, "team prompt, rounds",
+                        loop="round", prompt="team")

@@ -1,12 +1,18 @@
-"""Runs started by a test end with it, even when it fails while the run waits for a person."""
+"""Runs started by a test end with it, even when it fails while the run waits for a person;
+the browser tests' page, screenshots folder, and the oracle's calls of the demo instance."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 import pytest
 
-from tests.play.played_run import PlayedRun, StartRun
+from tests.human.desks import oracle_calls
+from tests.play.played_run import DEMO, WAIT_S, PlayedRun, StartRun
+from tests.viewer.browser import chromium_page
 
 
 @pytest.fixture
@@ -21,3 +27,23 @@ def start_run() -> Iterator[StartRun]:
     for run in started:
         if run.process.poll() is None:
             run.kill()
+
+
+@pytest.fixture(scope="module")
+def calls(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
+    """The calls the oracle lands on the demo instance, in order."""
+    return oracle_calls(tmp_path_factory.mktemp("oracle") / "run", task=DEMO)
+
+
+@pytest.fixture
+def shots(tmp_path: Path) -> Path:
+    folder = Path(os.environ.get("COCOBENCH_VIEWER_SCREENSHOTS") or tmp_path / "screenshots")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+@pytest.fixture
+def page() -> Iterator[Any]:
+    with chromium_page() as page:
+        page.set_default_timeout(WAIT_S * 1000)
+        yield page

@@ -6,22 +6,18 @@ $COCOBENCH_VIEWER_SCREENSHOTS (else the test's tmp dir)."""
 from __future__ import annotations
 
 import json
-import os
-import re
 import urllib.error
 import urllib.request
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from playwright.sync_api import expect
 
 from cocobench_agents.harness.store import EpisodeKey, RunFolder
 from cocobench_agents.play.server import TOKEN_HEADER
-from tests.human.desks import oracle_calls
 from tests.play.played_run import (
     DEMO,
-    WAIT_S,
     PlayedRun,
     StartRun,
     answers_logged,
@@ -30,81 +26,12 @@ from tests.play.played_run import (
     scripted_result,
     the_play,
 )
-from tests.viewer.browser import chromium_page, why_unavailable
+from tests.play.player import Player
 
-if why_unavailable() is None:
-    from playwright.sync_api import expect
-
-pytestmark = [pytest.mark.slow,
-              pytest.mark.skipif(why_unavailable() is not None, reason=str(why_unavailable()))]
+pytestmark = [pytest.mark.slow, pytest.mark.needs_browser]
 
 SELECTION = {"sources": ["demo"], "task_ids": [DEMO]}
 RUN_ARGS = ("--suite", "demo", "--task-id", DEMO)
-
-
-@pytest.fixture(scope="module")
-def calls(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
-    return oracle_calls(tmp_path_factory.mktemp("oracle") / "run", task=DEMO)
-
-
-@pytest.fixture
-def shots(tmp_path: Path) -> Path:
-    folder = Path(os.environ.get("COCOBENCH_VIEWER_SCREENSHOTS") or tmp_path / "screenshots")
-    folder.mkdir(parents=True, exist_ok=True)
-    return folder
-
-
-@pytest.fixture
-def page() -> Iterator[Any]:
-    with chromium_page() as page:
-        page.set_default_timeout(WAIT_S * 1000)
-        yield page
-
-
-class Player:
-    """A person at the play page, choosing menu entries by the call they stand for."""
-
-    def __init__(self, page: Any) -> None:
-        self.page = page
-        self.chosen: list[int | None] = []  # the ids chosen, None for DONE
-
-    def pending(self) -> str:
-        """The id of the decision shown, once its menu can be clicked."""
-        menu = self.page.locator("#menu[data-decision]")
-        expect(menu).to_have_count(1)
-        expect(self.page.locator("#menu button").first).to_be_enabled()
-        return menu.get_attribute("data-decision")
-
-    def menu(self) -> list[str]:
-        """The buttons' accessible names."""
-        self.pending()
-        return self.page.locator("#menu button").all_inner_texts()
-
-    def choose(self, call: str | None, *, keyboard: bool = False, message: str = "") -> None:
-        """Choose the entry of `call` (DONE when None or not on the menu), by its button or
-        by typing its id and Enter; wait until the page has moved on."""
-        page, decision = self.page, self.pending()
-        if message:
-            page.fill("#message", message)
-            page.evaluate("document.activeElement.blur()")
-        entry = page.locator(f'#menu button[title="{call}"]')
-        if call is None or entry.count() == 0:
-            page.get_by_role("button", name=re.compile(r"^DONE: ")).click()
-            self.chosen.append(None)
-        else:
-            action_id = int(entry.inner_text().split(":")[0])
-            if keyboard:
-                page.keyboard.type(str(action_id))
-                expect(page.locator("#typed")).to_contain_text(f"Action {action_id}")
-                page.keyboard.press("Enter")
-            else:
-                page.get_by_role("button", name=re.compile(rf"^{action_id}: ")).click()
-            self.chosen.append(action_id)
-        expect(page.locator(f'#menu[data-decision="{decision}"]')).to_have_count(0)
-
-    def replies(self) -> list[str]:
-        """What a `scripted:` model replies to make the same choices."""
-        return [f"ACTION: {'DONE' if c is None else c}" for c in self.chosen]
 
 
 def test_a_c0_episode_played_by_clicking_equals_a_scripted_one(

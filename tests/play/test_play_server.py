@@ -5,6 +5,7 @@ Host), a refused answer changes nothing, and answers reach the asking seat."""
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import http.client
 import json
 import threading
@@ -19,7 +20,7 @@ import pytest
 from cocobench_agents.engine import events
 from cocobench_agents.models.human import Answer, Decision
 from cocobench_agents.play.desk import AskedTwice, PlayDesk
-from cocobench_agents.play.prompt_parts import menu_labels, prompt_parts
+from cocobench_agents.play.prompt_parts import agent_label, menu_labels, prompt_parts
 from cocobench_agents.play.server import TOKEN_HEADER, PlayServer
 
 PROMPT = """You are agent_1, one of 2 robots (agent_1, agent_2).
@@ -194,8 +195,8 @@ def test_a_too_large_body_is_refused(server: PlayServer, engine: Engine) -> None
 def test_an_answer_reaches_the_seat_once(server: PlayServer, engine: Engine) -> None:
     asked = engine.ask(decision())
     shown = pending(server)
-    assert [o["label"] for o in shown["menu"]] == ["agent_1: pick up the Apple",
-                                                  "agent_1: wait"]
+    assert [(o["agent"], o["label"]) for o in shown["menu"]] == [
+        ("agent_1", "pick up the Apple"), ("agent_1", "wait")]
     assert shown["parts"]["messages"] == "agent_2: I open the fridge"
     answer = {"decision": shown["id"], "action_id": 3, "reason": "closest",
               "message": "apple is mine"}
@@ -278,3 +279,74 @@ def test_prompt_parts_of_the_shipped_suite() -> None:
         "state": "holding=empty"}
     assert menu_labels(parts) == {3: "agent_1: pick up the Apple", 7: "agent_1: wait"}
     assert prompt_parts("a prompt of one's own wording") == {}
+
+
+def test_an_answer_to_a_decision_no_longer_asked_is_refused(server: PlayServer,
+                                                              engine: Engine) -> None:
+    """A stale tab, or the second click of a double click, names the decision it was made
+    on: once a newer one is asked, the server refuses it and the newer one stays open."""
+    first = engine.ask(decision(1))
+    shown = pending(server)
+    assert call(server, "POST", "/play/api/answer",
+                body={"decision": shown["id"], "action_id": 3})[0] == 200
+    first.result(10)
+    second = engine.ask(decision(2))
+    wait_until(lambda: (state(server)["decision"] or {}).get("id") == decision(2).id)
+    status, reply = call(server, "POST", "/play/api/answer",
+                         body={"decision": shown["id"], "action_id": 7})
+    assert status == 409 and set(reply) == {"error"}
+    assert f"{shown['id']!r} is not waiting" in reply["error"]
+    assert f"asked now: {decision(2).id}" in reply["error"]
+    assert state(server)["decision"]["id"] == decision(2).id and not second.done()
+
+
+HISTORY_PROMPT = PROMPT.replace("  1. Find(agent_1, Apple) -> ok", "\n".join([
+    "  1. Find(agent_1, Apple) -> ok",
+    "  2. PickUp(agent_1, Apple) -> FAIL(too far)"]))
+
+
+def steps_landed(desk: PlayDesk, key: dict[str, Any],
+                 steps: list[tuple[int, str, str]]) -> None:
+    for index, agent, label in steps:
+        desk.on_event(events.StepLanded(key, {"step_index": index, "label": label,
+                                              "skill_result": {"agent": agent}}))
+
+
+def test_recent_actions_are_numbered_by_the_episode_s_steps(server: PlayServer, desk: PlayDesk,
+                                                            engine: Engine) -> None:
+    key = {"model": "greedy", "condition": "D1_blind", "task_id": "T", "epoch": 0, "arm": ""}
+    desk.on_event(events.EpisodeStarted(key | {"models": {"agent_1": "human",
+                                                          "agent_2": "greedy"}}))
+    steps_landed(desk, key, [(1, "agent_2", "Find(agent_2, Fridge)"),
+                             (2, "agent_1", "Find(agent_1, Apple)"),
+                             (3, "agent_2", "Open(agent_2, Fridge)"),
+                             (4, "agent_1", "PickUp(agent_1, Apple)")])
+    steps_landed(desk, key | {"task_id": "other"}, [(5, "agent_1", "Wait(agent_1)")])
+    engine.ask(dataclasses.replace(decision(), prompt=HISTORY_PROMPT))
+    shown = pending(server)
+    assert shown["parts"]["history"] == ("step 2: Find(agent_1, Apple) -> ok\n"
+                                         "step 4: PickUp(agent_1, Apple) -> FAIL(too far)")
+    assert shown["last_action"] == "step 4: PickUp(agent_1, Apple) -> FAIL(too far)"
+    assert state(server)["episode"]["models"] == {"agent_1": "human", "agent_2": "greedy"}
+
+
+@pytest.mark.parametrize("steps", [
+    [],  # no step kept (the lines are not the episode's)
+    [(2, "agent_1", "Find(agent_1, Apple)"), (4, "agent_1", "Open(agent_1, Fridge)")],
+])
+def test_recent_actions_that_are_not_the_steps_keep_the_prompt_s_numbers(
+        server: PlayServer, desk: PlayDesk, engine: Engine, steps: list) -> None:
+    key = {"model": "human", "condition": "D1_blind", "task_id": "T"}
+    desk.on_event(events.EpisodeStarted(key))
+    steps_landed(desk, key, steps)
+    engine.ask(dataclasses.replace(decision(), prompt=HISTORY_PROMPT))
+    shown = pending(server)
+    assert shown["parts"]["history"] == prompt_parts(HISTORY_PROMPT)["history"]
+    assert shown["last_action"] is None
+
+
+def test_a_centralized_menu_line_names_its_agent_once() -> None:
+    assert agent_label("agent_1: find a Fridge [agent_1]") == ("agent_1", "find a Fridge")
+    assert agent_label("agent_2: put object in hand on the CoffeeTable") == (
+        "agent_2", "put object in hand on the CoffeeTable")
+    assert agent_label("find a Fridge") == (None, "find a Fridge")

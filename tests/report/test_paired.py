@@ -75,7 +75,6 @@ def test_runs_given_with_arms_are_paired_the_same_way(tmp_path):
 
 
 def test_the_arms_table_is_in_the_index_with_one_plot_per_metric(tmp_path):
-    pytest.importorskip("matplotlib")
     out = tmp_path / "report"
     summary = build_report([RUN_ARMS], out)
     index = (out / "index.md").read_text()

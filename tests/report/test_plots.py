@@ -6,18 +6,16 @@ import sys
 from pathlib import Path
 
 import pytest
+from PIL import Image
 
 from cocobench_agents.reports import ReportError, build_report
 from cocobench_agents.reports.plots import INSTALL_HINT, PLOTS
 
 from .helpers import RUN_ORACLE, RUN_SMALL
 
-Image = pytest.importorskip("PIL.Image")
-
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory: pytest.TempPathFactory):
-    pytest.importorskip("matplotlib", reason="plots need matplotlib (pip install matplotlib)")
     out = tmp_path_factory.mktemp("report")
     return out, build_report([RUN_SMALL, RUN_ORACLE], out)
 

@@ -57,3 +57,28 @@ def test_registered_in_the_cocobench_command(capsys, tmp_path: Path) -> None:
     assert main(["report", str(tmp_path / "missing")]) == 2
     out, err = capsys.readouterr()
     assert "Traceback" not in out + err and "no such run folder" in err
+
+
+@pytest.mark.slow
+def test_arms_are_counted_as_arms_not_as_models(capsys, tmp_path: Path) -> None:
+    from cocobench_agents.cli import main
+
+    two_arms, plain = tmp_path / "arms", tmp_path / "plain"
+    common = ["run", "--suite", "demo", "--limit", "1", "--model", "greedy"]
+    assert main([*common, "--prompt-suite", "cocobench-v1", "--prompt-suite",
+                 "cocobench-v1+no-hint", "--out", str(two_arms)]) == 0
+    assert main([*common, "--out", str(plain)]) == 0
+    capsys.readouterr()
+
+    assert main(["report", str(two_arms), "--out", str(tmp_path / "rep"), "--no-plots",
+                 "--resamples", "50"]) == 0
+    assert "2 episodes, 1 model(s), 2 arm(s), 1 condition(s)" in capsys.readouterr().err
+    index = (tmp_path / "rep" / "index.md").read_text(encoding="utf-8")
+    assert "2 episodes of 1 model(s) in 2 arm(s) under 1 condition(s)" in index
+    assert "* Models: greedy\n* Arms: cocobench-v1, cocobench-v1+no-hint\n" in index
+    assert "| greedy; arms: cocobench-v1, cocobench-v1+no-hint |" in index
+
+    # runs reported as arms (--arms): still one model
+    assert main(["report", str(plain), str(two_arms), "--arms", "--out",
+                 str(tmp_path / "rep2"), "--no-plots", "--resamples", "50"]) == 0
+    assert "3 episodes, 1 model(s), 3 arm(s), 1 condition(s)" in capsys.readouterr().err

@@ -3,6 +3,7 @@ every shared config; deliberately broken backends are caught."""
 
 from __future__ import annotations
 
+import functools
 import io
 import random
 from collections.abc import Callable, Sequence
@@ -35,6 +36,24 @@ def test_embedded_backend_conforms_on_demo(config) -> None:
 def test_embedded_backend_conforms_on_shared_configs(path: Path) -> None:
     config = load_task(path)
     check_controller(lambda: EmbeddedController(config))
+
+
+def _has_two_portable_receptacles(config) -> bool:
+    objects = EmbeddedController(config).reset()[0]["objects"]
+    return sum(bool(o["pickupable"] and o["receptacle"]) for o in objects) >= 2
+
+
+@functools.cache
+def nesting() -> list:
+    """The instances where the contract can try to put a receptacle into one it holds."""
+    return [c for c in load_tasks("cocobench-full") if _has_two_portable_receptacles(c)]
+
+
+@pytest.mark.slow
+def test_embedded_backend_conforms_where_receptacles_can_nest() -> None:
+    assert len(nesting()) >= 10
+    for config in nesting():
+        check_controller(lambda config=config: EmbeddedController(config))
 
 
 def test_embedded_controller_satisfies_the_protocol() -> None:
@@ -137,6 +156,31 @@ class JpegFrames(EmbeddedController):
         return b"\xff\xd8\xff\xe0" + super().frame(agent, width, height)[4:]
 
 
+class AllowsCycles(EmbeddedController):
+    """Lets a held receptacle be put into what it contains (the bug of issue 24)."""
+
+    def step(self, action: str, agentId: int | None = None, **kwargs: Any):
+        if self.world is not None:
+            self.world.lies_within = lambda obj, outer: obj.id == outer.id
+        return super().step(action, agentId, **kwargs)
+
+
+class ReportsAnObjectInsideItself(EmbeddedController):
+    """After a Pass, lists the first receptacle among its own contents."""
+
+    def step(self, action: str, agentId: int | None = None, **kwargs: Any):
+        metadata = super().step(action, agentId, **kwargs)
+        if action != "Pass":
+            return metadata
+        out = []
+        for md in metadata:
+            objects = [dict(o) for o in md["objects"]]
+            box = next(o for o in objects if o["receptacle"])
+            box["receptacleObjectIds"] = [*box["receptacleObjectIds"], box["objectId"]]
+            out.append({**dict(md), "objects": objects})
+        return out
+
+
 FailingPass = _misreporting("Pass".__eq__, lastActionSuccess=False, errorMessage="nope")
 # Accepts a teleport off the floor (reports success without moving).
 TeleportAnywhere = _misreporting("TeleportFull".__eq__, lastActionSuccess=True, errorMessage="")
@@ -157,6 +201,15 @@ TeleportAnywhere = _misreporting("TeleportFull".__eq__, lastActionSuccess=True, 
 def test_broken_backends_are_caught(backend: type, message: str) -> None:
     with pytest.raises(ConformanceError, match=message):
         check_controller(lambda: backend(CONFIG))
+
+
+@pytest.mark.parametrize(("backend", "message"), [
+    (AllowsCycles, "after PutObject: reading the objects failed: ContainmentError"),
+    (ReportsAnObjectInsideItself, "after Pass: an object lies inside itself"),
+])
+def test_backends_that_nest_an_object_in_itself_are_caught(backend: type, message: str) -> None:
+    with pytest.raises(ConformanceError, match=message):
+        check_controller(lambda: backend(nesting()[0]))
 
 
 def test_conformance_error_is_an_assertion_error() -> None:

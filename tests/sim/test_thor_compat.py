@@ -31,17 +31,6 @@ needs_data = pytest.mark.skipif(not SHARED_FILES, reason=f"no shared configs at 
 REPO = Path(__file__).resolve().parents[2]
 
 
-def _has_ai2thor() -> bool:
-    try:
-        import ai2thor.server  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-needs_ai2thor = pytest.mark.skipif(not _has_ai2thor(), reason="ai2thor is not installed")
-
-
 def _raw(path: Path) -> dict[str, Any]:
     return json.loads(path.read_text())
 
@@ -98,7 +87,7 @@ def _ai2thor_controller(path: Path) -> Any:
 
 
 @needs_data
-@needs_ai2thor
+@pytest.mark.needs_thor
 @pytest.mark.parametrize("name", PARITY)
 def test_the_client_gets_ai2thors_answers(name: str) -> None:
     path = SHARED_TASKS / name
@@ -134,7 +123,7 @@ def _public_attributes(obj: Any) -> dict[str, type]:
 
 
 @needs_data
-@needs_ai2thor
+@pytest.mark.needs_thor
 def test_events_have_ai2thors_attributes_and_types() -> None:
     import ai2thor.server
 

@@ -1,7 +1,7 @@
 """Fixtures for the AI2-THOR backend tests: a private controller pool and the fake Unity.
 
-Nothing here starts Unity or downloads a build. Tests that drive ai2thor's Python code skip
-(with the reason) when ai2thor is not installed; CI installs it.
+Nothing here starts Unity or downloads a build. Tests that drive ai2thor's Python code are
+marked `needs_thor` (they skip, with the reason, when ai2thor is not installed; CI installs it).
 """
 
 from __future__ import annotations
@@ -17,22 +17,6 @@ from benchmark_adapter.sim.thor.environment import Renderers
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import TaskConfig, load_task
 from tests.paths import SHARED_TASKS
-
-
-def _importable(module: str) -> bool:
-    try:
-        __import__(module)
-    except ImportError:
-        return False
-    return True
-
-
-HAS_AI2THOR = _importable("ai2thor")
-AI2THOR_MISSING = (
-    "ai2thor is not installed (pip install 'cocobench-agents[thor]'); these tests drive "
-    "its Python Controller/Event code over a fake server"
-)
-needs_ai2thor = pytest.mark.skipif(not HAS_AI2THOR, reason=AI2THOR_MISSING)
 
 # The real configs live beside the repository: /work/shared/cocobench-data next to /work/main.
 TASKS = SHARED_TASKS

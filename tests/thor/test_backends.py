@@ -12,7 +12,6 @@ from benchmark_adapter.sim.embedded import EmbeddedController
 from benchmark_adapter.sim.thor import ThorController, ThorOptions
 
 from .conftest import (
-    HAS_AI2THOR,
     NO_RENDERER,
     needs_data,
     probe_finds,
@@ -115,6 +114,13 @@ def test_check_backend_fails_fast_without_starting_anything(monkeypatch):
         hidden.setitem(sys.modules, "ai2thor", None)
         with pytest.raises(ThorUnavailable, match="not installed"):
             check_backend("ai2thor")
-    if HAS_AI2THOR:
-        with pytest.raises(ThorUnavailable, match="neither Vulkan nor an X display"):
-            check_backend("ai2thor")
+
+
+@pytest.mark.needs_thor
+def test_check_backend_names_a_missing_renderer(monkeypatch):
+    from benchmark_adapter.sim.backends import check_backend
+    from benchmark_adapter.sim.thor import ThorUnavailable
+
+    probe_finds(monkeypatch, NO_RENDERER)
+    with pytest.raises(ThorUnavailable, match="neither Vulkan nor an X display"):
+        check_backend("ai2thor")

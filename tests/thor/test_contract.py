@@ -10,19 +10,14 @@ from __future__ import annotations
 import io
 
 import pytest
-
-from .conftest import AI2THOR_MISSING, needs_data, shared_config
-
-pytest.importorskip("ai2thor", reason=AI2THOR_MISSING)
-
 from PIL import Image
 
 from benchmark_adapter.sim.conformance import check_controller
 from benchmark_adapter.sim.embedded import EmbeddedController
 
-from .fake_unity import test_pattern
+from .conftest import needs_data, shared_config
 
-pytestmark = needs_data
+pytestmark = [pytest.mark.needs_thor, needs_data]
 FOUR_AGENTS = "G_D1__FloorPlan224__4agent_seed0.json"
 
 
@@ -136,6 +131,8 @@ def test_frames_are_pngs_of_the_agents_rgb_image(make_thor):
     ctl.reset()
     image = Image.open(io.BytesIO(ctl.frame(1, 320, 300))).convert("RGBA")
     assert image.size == (320, 300)
+    from .fake_unity import test_pattern  # needs ai2thor: imported once the test runs
+
     expected = Image.fromarray(test_pattern(1, 320, 300))
     assert image.tobytes() == expected.tobytes()  # right way up, agent 1's own frame
     small = Image.open(io.BytesIO(ctl.frame(0, 64, 48)))

@@ -66,8 +66,8 @@ def test_warnings_come_with_a_fix_and_do_not_fail(env):
     assert "set: none" in out
 
 
+@pytest.mark.needs_thor  # the build cache check needs ai2thor's commit id
 def test_build_cache_found(env, tmp_path):
-    pytest.importorskip("ai2thor", reason="the build cache check needs ai2thor's commit id")
     from ai2thor._builds import COMMIT_ID
 
     (tmp_path / ".ai2thor" / "releases" / f"thor-CloudRendering-{COMMIT_ID}").mkdir(parents=True)

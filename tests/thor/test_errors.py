@@ -27,7 +27,7 @@ from benchmark_adapter.sim.thor.build import BuildGuard, LocalBuild, within
 from benchmark_adapter.sim.thor.environment import Renderers, choose_platform, preflight
 from benchmark_adapter.sim.thor.loader import require_ai2thor
 
-from .conftest import NO_RENDERER, needs_ai2thor, needs_data, probe_finds, shared_config
+from .conftest import NO_RENDERER, needs_data, probe_finds, shared_config
 
 VULKAN = Renderers("Linux", "libvulkan.so.1", "/usr/bin/vulkaninfo", "/usr/bin/nvidia-smi", None)
 X_ONLY = Renderers("Linux", None, None, None, ":0")
@@ -143,7 +143,7 @@ def test_probe_reads_display_and_explicit_display_wins(monkeypatch):
     assert environment.probe().display is None
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_no_renderer_is_reported_before_anything_starts(monkeypatch, pool):
     probe_finds(monkeypatch, NO_RENDERER)
@@ -198,8 +198,8 @@ def test_within_returns_raises_or_gives_up():
 
 @pytest.fixture
 def offline_home(monkeypatch, tmp_path) -> Iterator[threading.Event]:
-    """An empty ~/.ai2thor, a machine with Vulkan, and a gate that hung calls wait on."""
-    pytest.importorskip("ai2thor", reason="needs ai2thor's build lookup code")
+    """An empty ~/.ai2thor, a machine with Vulkan, and a gate that hung calls wait on (tests
+    using it are marked `needs_thor`: ai2thor's build lookup code)."""
     monkeypatch.setenv("HOME", str(tmp_path))
     probe_finds(monkeypatch, VULKAN)
     gate = threading.Event()
@@ -222,6 +222,7 @@ def build_exists(monkeypatch: pytest.MonkeyPatch, missing: tuple[str, ...] = ())
     )
 
 
+@pytest.mark.needs_thor
 @needs_data
 def test_hanging_build_lookup_times_out_with_a_way_out(monkeypatch, offline_home, pool):
     import ai2thor.build
@@ -237,6 +238,7 @@ def test_hanging_build_lookup_times_out_with_a_way_out(monkeypatch, offline_home
     assert len(pool) == 0
 
 
+@pytest.mark.needs_thor
 @needs_data
 def test_hanging_download_times_out(monkeypatch, offline_home, pool):
     import ai2thor.build
@@ -247,6 +249,7 @@ def test_hanging_download_times_out(monkeypatch, offline_home, pool):
         thor_with(pool, download_timeout=0.3).reset()
 
 
+@pytest.mark.needs_thor
 @needs_data
 def test_no_build_available(monkeypatch, offline_home, pool):
     import ai2thor.build
@@ -258,6 +261,7 @@ def test_no_build_available(monkeypatch, offline_home, pool):
     assert "local_executable_path" in caught.value.remedy
 
 
+@pytest.mark.needs_thor
 @needs_data
 def test_failed_download(monkeypatch, offline_home, pool):
     import ai2thor.build
@@ -271,6 +275,7 @@ def test_failed_download(monkeypatch, offline_home, pool):
         thor_with(pool).reset()
 
 
+@pytest.mark.needs_thor
 @needs_data
 def test_build_whose_platform_cannot_run_here(monkeypatch, offline_home, pool):
     build_exists(monkeypatch, missing=("Vulkan missing",))
@@ -279,7 +284,7 @@ def test_build_whose_platform_cannot_run_here(monkeypatch, offline_home, pool):
     assert "Xvfb" in caught.value.remedy
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_unity_failing_to_start_points_at_its_logs(monkeypatch, offline_home, pool):
     class CrashingController:
@@ -303,6 +308,7 @@ def test_embedded_only_scenes_are_refused_clearly():
         ThorController(demo)
 
 
+@pytest.mark.needs_thor
 @needs_data
 def test_a_cached_build_is_used_without_the_network(monkeypatch, offline_home, tmp_path):
     import ai2thor.build

@@ -14,7 +14,7 @@ from benchmark_adapter.sim.thor import ThorCrashed, ThorUnavailable
 from benchmark_adapter.sim.thor import pool as pool_module
 from benchmark_adapter.sim.thor.pool import ControllerPool, install_sigterm_exit, shutdown
 
-from .conftest import needs_ai2thor, needs_data, python_stdout, shared_config
+from .conftest import needs_data, python_stdout, shared_config
 
 
 def started(make_thor, library, **options):
@@ -24,7 +24,7 @@ def started(make_thor, library, **options):
 
 
 @pytest.mark.parametrize("interrupt", [KeyboardInterrupt(), SystemExit(143)])
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_interrupt_during_a_step_stops_ai2thor(make_thor, library, pool, interrupt):
     ctl, server = started(make_thor, library)
@@ -39,7 +39,7 @@ def test_interrupt_during_a_step_stops_ai2thor(make_thor, library, pool, interru
 
 
 @pytest.mark.parametrize("failure", [OSError("broken pipe"), TimeoutError("no reply")])
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_failure_during_a_step_stops_ai2thor(make_thor, library, pool, failure):
     ctl, server = started(make_thor, library)
@@ -51,7 +51,7 @@ def test_failure_during_a_step_stops_ai2thor(make_thor, library, pool, failure):
     assert server.stops >= 1 and len(pool) == 0
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_failure_during_reset_stops_ai2thor(make_thor, library, pool):
     ctl, server = started(make_thor, library)
@@ -61,7 +61,7 @@ def test_failure_during_reset_stops_ai2thor(make_thor, library, pool):
     assert server.stops >= 1 and len(pool) == 0
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_a_dead_pooled_ai2thor_is_replaced_once(make_thor, library, pool):
     first, server = started(make_thor, library)
@@ -72,7 +72,7 @@ def test_a_dead_pooled_ai2thor_is_replaced_once(make_thor, library, pool):
     assert server.stops >= 1 and len(library.servers) == 2 and len(pool) == 1
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_ctrl_c_inside_a_with_block_stops_ai2thor(make_thor, library, pool):
     with pytest.raises(KeyboardInterrupt), make_thor(shared_config()) as ctl:
@@ -81,7 +81,7 @@ def test_ctrl_c_inside_a_with_block_stops_ai2thor(make_thor, library, pool):
     assert library.servers[0].stops == 1 and len(pool) == 0
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_an_ordinary_error_inside_a_with_block_keeps_ai2thor_for_reuse(make_thor, library, pool):
     with pytest.raises(ZeroDivisionError), make_thor(shared_config()) as ctl:
@@ -92,7 +92,7 @@ def test_an_ordinary_error_inside_a_with_block_keeps_ai2thor_for_reuse(make_thor
         ctl.last_metadata()
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_a_forgotten_controller_frees_its_ai2thor(make_thor, library, pool):
     ctl, _ = started(make_thor, library)
@@ -102,7 +102,7 @@ def test_a_forgotten_controller_frees_its_ai2thor(make_thor, library, pool):
     assert len(library.servers) == 1
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_controllers_alive_at_once_get_their_own_ai2thor(make_thor, library, pool):
     first, _ = started(make_thor, library)
@@ -111,7 +111,7 @@ def test_controllers_alive_at_once_get_their_own_ai2thor(make_thor, library, poo
     assert first._session.controller is not second._session.controller
 
 
-@needs_ai2thor
+@pytest.mark.needs_thor
 @needs_data
 def test_pool_close_stops_every_ai2thor(make_thor, library, pool):
     started(make_thor, library)

@@ -9,13 +9,9 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
-
-from .conftest import AI2THOR_MISSING, SHARED_FILES, needs_data, shared_library
-
-pytest.importorskip("ai2thor", reason=AI2THOR_MISSING)
 
 from benchmark_adapter.metrics import score_trajectory
 from benchmark_adapter.oracles import run_oracle
@@ -24,14 +20,19 @@ from benchmark_adapter.sim.thor import ThorController, ThorOptions
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import TaskConfig, load_task
 
-from .fake_unity import SceneLibrary, fake_factory
+from .conftest import SHARED_FILES, needs_data, shared_library
 
-pytestmark = needs_data
+if TYPE_CHECKING:
+    from .fake_unity import SceneLibrary
+
+pytestmark = [pytest.mark.needs_thor, needs_data]
 
 
 @pytest.fixture(scope="module")
 def shared_thor() -> Iterator[tuple[SceneLibrary, ControllerPool, Any]]:
     """One library, pool and factory for the whole module (so one fake Unity is reused)."""
+    from .fake_unity import fake_factory  # needs ai2thor: imported once the test runs
+
     library = shared_library()
     pool = ControllerPool(install_exit_hooks=False)
     yield library, pool, fake_factory(library)

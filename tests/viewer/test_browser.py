@@ -10,19 +10,17 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from playwright.sync_api import expect
 
 from cocobench_agents.cli import main
+from cocobench_agents.harness.result_rows import CS_NOTE
 from cocobench_agents.viewer.pages import Pages
 from cocobench_agents.viewer.server import ViewerServer
 from cocobench_agents.viewer.source import Catalog
 
-from .browser import chromium_page, why_unavailable
+from .browser import chromium_page
 
-if why_unavailable() is None:
-    from playwright.sync_api import expect
-
-pytestmark = [pytest.mark.slow,
-              pytest.mark.skipif(why_unavailable() is not None, reason=str(why_unavailable()))]
+pytestmark = [pytest.mark.slow, pytest.mark.needs_browser]
 
 
 @pytest.fixture
@@ -50,6 +48,8 @@ def check_site(page: Any, base: str, run: Path, shots: Path, tag: str) -> None:
     listed = set(rows.evaluate_all("rs => rs.map(r => r.dataset.key)"))
     assert listed == {f"0/episodes/greedy/{r['condition']}/{r['task_id']}" for r in records}
     page.screenshot(path=shots / f"{tag}-runs.png", full_page=True)
+    # a CS column's tooltip says why a failing team can score 1.00
+    expect(page.locator('th[data-key="cs"]')).to_have_attribute("title", f"sort. {CS_NOTE}")
     page.select_option('select[data-filter="dim"]', "D4")  # the filters work in the page
     expect(page.locator("table.episodes tbody tr")).to_have_count(2)
     page.select_option('select[data-filter="dim"]', "")

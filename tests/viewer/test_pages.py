@@ -4,15 +4,21 @@ when the folder lacks something."""
 from __future__ import annotations
 
 import gzip
+import html as html_text
 import json
 import re
 from pathlib import Path
 
+import cocobench_agents as cb
 from benchmark_adapter.metrics.steps import extract_steps
-from cocobench_agents.harness.summary import summary_rows
+from cocobench_agents.harness.result_rows import CS_NOTE
+from cocobench_agents.harness.summary import LEGEND, summary_rows
 from cocobench_agents.viewer.pages import Pages
+from cocobench_agents.viewer.rows import COLUMNS
 from cocobench_agents.viewer.source import Catalog
 from cocobench_agents.viewer.timeline import NO_PROMPT
+from tests.human.desks import OracleDesk
+from tests.play.played_run import DEMO
 
 from .conftest import TASKS
 
@@ -45,6 +51,21 @@ def test_runs_page_lists_every_episode_and_the_summary(fixed_run: Path) -> None:
                    "construct_status", "terminal", "errors"):
         assert f'data-filter="{column}"' in html
     assert 'data-live="true"' in html
+
+
+def test_a_construct_score_is_explained_where_it_is_shown(fixed_run: Path) -> None:
+    pages = pages_of(fixed_run)
+    runs = html_text.unescape(pages.runs())
+    tip = f'title="{CS_NOTE}"'
+    assert "capped at 1" in CS_NOTE and "a team that fails can score 1.00" in CS_NOTE
+    assert runs.count(f"<th {tip}>CS") == 5  # the summary's CS and CS_D1..D4 headers
+    assert f'<th data-key="cs" title="sort. {CS_NOTE}">CS</th>' in runs  # the episodes
+    assert f'<p class="caption">{LEGEND}</p>' in runs and CS_NOTE in LEGEND
+    episode = next(e for e in pages.catalog.episodes() if e.record.get("construct_score")
+                   is not None)
+    assert f'<div class="big" {tip}>' in html_text.unescape(pages.episode(episode))
+    compare = html_text.unescape(pages.compare(episode.key.task_id) or "")
+    assert f"<span {tip}>CS " in compare
 
 
 def test_episode_page_shows_every_landed_step_reply_and_prompt(fixed_run: Path) -> None:
@@ -175,3 +196,27 @@ def test_two_runs_are_listed_together(fixed_run: Path, run_copy: Path) -> None:
     html = pages.runs()
     assert len(listed(html)) == 16
     assert {e.path.split("/")[1] for e in pages.catalog.episodes()} == {"0", "1"}
+
+
+def test_a_human_ai_team_is_named_by_its_seats_models(tmp_path: Path) -> None:
+    """`--model greedy --agent-model agent_1=human` (the person played by code here): the
+    runs table, the summary, the episode header, the team and every decision name the
+    model of each seat."""
+    out = tmp_path / "team"
+    cb.run(cb.RunRequest(out=out, models=["greedy"], agent_models={"agent_1": "human"},
+                         selection={"sources": ["demo"], "task_ids": [DEMO]},
+                         conditions=["D1_blind"], max_steps=4), desk=OracleDesk([]))
+    team = "agent_1: human · agent_2: greedy"
+    pages = pages_of(out)
+    runs = html_text.unescape(pages.runs())
+    (row,) = listed(runs)
+    assert row["v"][[key for key, _, _ in COLUMNS].index("model")] == team
+    assert f"<td>{team}</td><td>D1_blind</td>" in runs  # the summary's row
+    (episode,) = pages.catalog.episodes()
+    page = html_text.unescape(pages.episode(episode))
+    assert f'<p class="subtitle">{team} · D1_blind' in page
+    assert "<li><strong>agent_1</strong>: human" in page
+    seats = re.findall(r'<span class="seat"><strong>(\w+)</strong>: <span class="decided-by"'
+                       r'[^>]*>(\w+)</span></span>', page)
+    assert set(seats) == {("agent_1", "human"), ("agent_2", "greedy")}
+    assert len(seats) == len(pages.catalog.runs[0].trajectory(episode)["planner_decisions"])

@@ -97,6 +97,13 @@ def put(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         not (receptacle.aff.openable and not receptacle.is_open),
         f"Target receptacle {receptacle.id} is closed",
     )
+    # In AI2-THOR a held receptacle's contents travel in the hand with it, so nothing ends
+    # up inside itself; here the put must refuse it or containment would loop (issue 24: a
+    # held Box put into the Mug inside it).
+    _require(
+        not world.lies_within(receptacle, held),
+        f"{held.id} cannot be placed in {receptacle.id}, which lies inside {held.id}",
+    )
     if len(receptacle.contents) >= receptacle.aff.capacity:
         raise ActionFailed("No valid positions to place object found")
     held.held_by, agent.held = None, None

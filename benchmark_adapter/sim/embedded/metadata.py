@@ -53,12 +53,7 @@ def object_record(world: World, obj: SimObject) -> dict[str, Any]:
 
 
 def _parents(world: World, obj: SimObject) -> list[str] | None:
-    chain = []
-    parent_id = obj.parent
-    while parent_id is not None:
-        chain.append(parent_id)
-        parent_id = world.objects[parent_id].parent
-    return chain or None
+    return [p.id for p in world.ancestors(obj)] or None
 
 
 class ObjectTable:

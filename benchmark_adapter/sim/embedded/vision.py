@@ -53,13 +53,9 @@ def in_view(
 
 def enclosed(world: World, obj: SimObject) -> bool:
     """Whether the object is shut inside a closed container (at any depth)."""
-    parent_id = obj.parent
-    while parent_id is not None:
-        parent = world.objects[parent_id]
-        if parent.aff.openable and not parent.is_open:
-            return True
-        parent_id = parent.parent
-    return False
+    if obj.parent is None:  # most objects, on every visibility test: keep it cheap
+        return False
+    return any(p.aff.openable and not p.is_open for p in world.ancestors(obj))
 
 
 def visible(world: World, agent: SimAgent, obj: SimObject) -> bool:

@@ -66,9 +66,20 @@ class SimAgent:
         return f"agent_{self.index + 1}"
 
 
+class ContainmentError(RuntimeError):
+    """The world's containment is no longer a forest: a cycle, or a link one side lacks.
+
+    The executor's rules never let this happen; raising stops a walk over the parents that
+    would otherwise loop forever (issue 24)."""
+
+
 @dataclass
 class World:
-    """Objects, agents and the walkable floor grid."""
+    """Objects, agents and the walkable floor grid.
+
+    Containment is a forest: each object has at most one `parent`, which lists it in its
+    `contents`, and no object is inside itself, directly or through what it contains.
+    """
 
     objects: dict[str, SimObject]
     agents: list[SimAgent]
@@ -86,12 +97,68 @@ class World:
         on_grid = abs(cx * GRID - x) < 1e-6 and abs(cz * GRID - z) < 1e-6
         return on_grid and (cx, cz) in self.floor
 
+    def ancestors(self, obj: SimObject) -> list[SimObject]:
+        """The receptacles `obj` lies in, innermost first.
+
+        A chain longer than the number of objects must loop: the walk stops there (so it is
+        bounded by the number of objects) and raises `ContainmentError` naming the loop, as
+        it does for an unknown parent, instead of running forever.
+        """
+        chain: list[SimObject] = []
+        parent_id = obj.parent
+        while parent_id is not None:
+            parent = self.objects.get(parent_id)
+            if parent is None:
+                raise ContainmentError(f"{obj.id} lies in {parent_id}, which is not an object")
+            chain.append(parent)
+            if len(chain) > len(self.objects):
+                raise ContainmentError(f"containment cycle: {_loop(obj, chain)}")
+            parent_id = parent.parent
+        return chain
+
+    def lies_within(self, obj: SimObject, outer: SimObject) -> bool:
+        """Whether `obj` is `outer` or lies inside it, directly or transitively."""
+        return obj.id == outer.id or any(p.id == outer.id for p in self.ancestors(obj))
+
+    def check_containment(self) -> None:
+        """Raise `ContainmentError` unless containment is a forest whose links agree both
+        ways (`parent` and `contents`) and held objects lie in nothing."""
+        for obj in self.objects.values():
+            if obj.parent is not None:
+                parent = self.objects.get(obj.parent)
+                if parent is None or obj.id not in parent.contents:
+                    raise ContainmentError(
+                        f"{obj.id} names {obj.parent} as its parent, which does not list it"
+                    )
+                if obj.held_by is not None:
+                    raise ContainmentError(f"{obj.id} is held and lies in {obj.parent}")
+            if len(set(obj.contents)) != len(obj.contents):
+                raise ContainmentError(f"{obj.id} lists an object twice: {obj.contents}")
+            for content_id in obj.contents:
+                content = self.objects.get(content_id)
+                if content is None or content.parent != obj.id:
+                    raise ContainmentError(
+                        f"{obj.id} lists {content_id}, whose parent is not {obj.id}"
+                    )
+            self.ancestors(obj)
+
     def blocking_agent(self, x: float, z: float, ignore: int) -> SimAgent | None:
         """Another agent whose body would overlap an agent standing at (x, z)."""
         for other in self.agents:
             if other.index != ignore and math.hypot(other.x - x, other.z - z) < 2 * AGENT_RADIUS:
                 return other
         return None
+
+
+def _loop(obj: SimObject, chain: list[SimObject]) -> str:
+    """The path from `obj` up its looping `chain` to the first object seen twice."""
+    path, seen = [obj.id], {obj.id}
+    for parent in chain:
+        path.append(parent.id)
+        if parent.id in seen:
+            break
+        seen.add(parent.id)
+    return " -> ".join(path)
 
 
 def position_from_id(object_id: str) -> tuple[float, float, float]:

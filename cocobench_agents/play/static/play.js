@@ -8,10 +8,15 @@
   const auth = { [document.body.dataset.tokenHeader]: token };
   const PART_TITLES = [["goal", "Goal"], ["progress", "Goal progress"],
     ["messages", "Teammates' messages"], ["history", "Recent actions"], ["state", "State"]];
-  let version = null;   // the version of the state drawn last
-  let decision = null;  // the decision on screen (null: none pending)
-  let typed = "";       // digits typed for a keyboard choice
-  let sending = false;
+  let version = null;     // the version of the state drawn last
+  let decision = null;    // the decision on screen (null: none pending)
+  let typed = "";         // digits typed for a keyboard choice
+  let sending = false;    // an answer is on its way
+  let answered = null;    // the id of the decision answered last (its menu stays off)
+  let unreachable = false;  // the server does not answer (the run ended or was stopped)
+  let tokenDead = false;  // the server refused this tab's token: a restarted run's new one
+  let drawnAt = 0;        // when the menu on screen was drawn (performance.now())
+  let pressedAt = -1;     // when the last pointer press began (an event's timeStamp)
 
   const pause = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
 
@@ -27,11 +32,28 @@
     $(id).hidden = !text;
   }
 
+  // What became of the person's choice; its line keeps its place, so the buttons never move
+  // under the pointer.
+  function say(text) {
+    $("sent").textContent = text;
+  }
+
   function episodeName(key) {
     if (!key) return "";
     const arm = key.arm ? ` · arm ${key.arm}` : "";
     const epoch = key.epoch ? ` · epoch ${key.epoch}` : "";
     return `${key.task_id} · ${key.model} · ${key.condition}${arm}${epoch}`;
+  }
+
+  // The seats of the episode: the person's ("you") and the teammates' models.
+  function seatsLine(episode, seat) {
+    const models = episode && episode.models;
+    if (!models) return "";
+    if (typeof models === "string") {
+      return models === "human" ? "every seat: you (human)" : `every seat: ${models}`;
+    }
+    return Object.entries(models).map(([agent, model]) =>
+      `${agent}: ${agent === seat ? "you (human)" : model}`).join(" · ");
   }
 
   function score(value) {
@@ -76,14 +98,31 @@
       `, ${last.terminal_reason}.`));
   }
 
+  // A half-typed reason or message outlives a reload of this tab (sessionStorage is the
+  // tab's own), keyed by the decision it was written for.
+  const DRAFTS = ["reason", "message"];
+  const draftKey = (of, field) => `cocobench-play:${of.id}:${field}`;
+
+  function restoreDrafts() {
+    for (const field of DRAFTS) {
+      $(field).value = sessionStorage.getItem(draftKey(decision, field)) || "";
+    }
+  }
+
+  function forgetDrafts(asked) {
+    for (const field of DRAFTS) sessionStorage.removeItem(draftKey(asked, field));
+  }
+
   function drawDecision(state) {
     const next = state.decision;
-    if (next && decision && next.id === decision.id) return;  // keep what is being typed
+    $("seats").textContent = seatsLine(state.episode, next && next.seat);
+    if (next && decision && next.id === decision.id) {  // keep what is being typed
+      updateMenu();
+      return;
+    }
     decision = next;
     typed = "";
     show("typed", "");
-    $("reason").value = "";
-    $("message").value = "";
     if (!decision) {
       const ended = state.ended !== null;
       $("seat-title").textContent = ended ? "No more decisions" : "Waiting for the next decision…";
@@ -95,10 +134,12 @@
       $("controls").hidden = true;
       $("prompt-box").hidden = true;
       $("choose").hidden = ended;
+      if (ended) show("last-action", "");
       return;
     }
+    const step = decision.step_index + 1;
     $("seat-title").textContent = `${decision.seat === "team" ? "The team's planner" :
-      decision.seat}: your decision (step ${decision.step_index + 1})`;
+      decision.seat}: your decision (step ${step})`;
     $("episode-title").textContent = episodeName(state.episode) || decision.episode;
     $("frames").replaceChildren(...decision.images.map((src, i) => {
       const image = element("img");
@@ -112,21 +153,62 @@
         card.append(element("h3", title), element("pre", decision.parts[key]));
         return card;
       }));
+    // The result of the seat's last action, as the prompt's history says it: it stays until
+    // the next one lands.
+    show("last-action", decision.last_action && `Your last action — ${decision.last_action}`);
     $("prompt").textContent = decision.prompt;
     $("prompt-box").hidden = false;
     $("message-field").hidden = !decision.wants_message;
-    $("menu").dataset.decision = decision.id;
-    $("menu").replaceChildren(...decision.menu.map((option) => {
-      const button = element("button", `${option.id}: ${option.label}`);
-      button.type = "button";
-      button.dataset.id = option.id;
-      button.title = option.call;
-      button.addEventListener("click", () => choose(option.id));
-      return button;
-    }));
+    restoreDrafts();
+    drawMenu();
     $("controls").hidden = false;
-    setMenuEnabled(true);
-    show("sent", "");
+    say("");
+    drawnAt = performance.now();
+    updateMenu();
+    $("announce").textContent = `${decision.seat === "team" ? "The team" : decision.seat}: ` +
+      `your decision, step ${step}, ${decision.menu.length} actions.` +
+      (decision.last_action ? ` Your last action: ${decision.last_action}.` : "");
+    const first = $("menu").querySelector("button");
+    if (first && !first.disabled) first.focus();
+  }
+
+  // The menu, its agent named once above that agent's buttons.
+  function drawMenu() {
+    const drawn = decision;
+    const groups = [];
+    for (const option of drawn.menu) {
+      if (!groups.length || groups[groups.length - 1].agent !== option.agent) {
+        groups.push({ agent: option.agent, options: [] });
+      }
+      groups[groups.length - 1].options.push(option);
+    }
+    $("menu").dataset.decision = drawn.id;
+    $("menu").replaceChildren(...groups.map((group) => {
+      const box = element("div", undefined, "menu-group");
+      box.setAttribute("role", "group");
+      if (group.agent) {
+        box.setAttribute("aria-label", `${group.agent}'s actions`);
+        box.append(element("h3", group.agent));
+      }
+      box.append(...group.options.map((option) => {
+        const button = element("button", `${option.id}: ${option.label}`);
+        button.type = "button";
+        button.dataset.id = option.id;
+        button.title = option.call;
+        button.addEventListener("click", (event) => {
+          if (deliberate(event)) choose(drawn, option.id);
+        });
+        return button;
+      }));
+      return box;
+    }));
+  }
+
+  // A click answers only the decision the person saw: not the second click of a double click
+  // (detail 2), nor one whose press began before this menu was drawn. Keyboard and assistive
+  // technology clicks have detail 0 and no press.
+  function deliberate(event) {
+    return event.detail === 0 || (event.detail === 1 && pressedAt >= drawnAt);
   }
 
   function draw(state) {
@@ -135,17 +217,31 @@
     drawDecision(state);
   }
 
-  function setMenuEnabled(enabled) {
+  // The menu is off while an answer is on its way or taken, and while the run cannot be
+  // reached or has refused this tab's token.
+  function updateMenu() {
+    const enabled = decision !== null && !sending && answered !== decision.id &&
+      !unreachable && !tokenDead;
     for (const button of $("menu").querySelectorAll("button")) button.disabled = !enabled;
     $("done").disabled = !enabled;
   }
 
+  // After --resume the run has a new server and token: a tab of an earlier start can only
+  // say so.
+  function refuseToken() {
+    tokenDead = true;
+    updateMenu();
+    show("problem", "This tab's token is not the run's: it belongs to an earlier start of " +
+      "cocobench run (a resumed run has a new token). Open the play address it printed last.");
+  }
+
   // actionId null: DONE (every goal is satisfied), as a model may answer
-  async function choose(actionId) {
-    if (sending || !decision) return;
-    const asked = decision;
+  async function choose(asked, actionId) {
+    if (asked !== decision || sending || answered === asked.id || unreachable || tokenDead) {
+      return;
+    }
     sending = true;
-    setMenuEnabled(false);
+    updateMenu();
     const body = { decision: asked.id, action_id: actionId, reason: $("reason").value,
       message: asked.wants_message ? $("message").value : "" };
     try {
@@ -154,20 +250,31 @@
         body: JSON.stringify(body) });
       const reply = await response.json();
       if (response.ok) {
-        show("sent", `Sent ${actionId ?? "DONE"}. Waiting for the next decision…`);
+        answered = asked.id;
+        forgetDrafts(asked);
+        const option = asked.menu.find((o) => o.id === actionId);
+        say(`Sent ${option ? `${option.id}: ${option.label}` : "DONE"}. ` +
+          "Waiting for the next decision…");
+      } else if (response.status === 403) {
+        refuseToken();
       } else {
-        show("sent", `Not taken: ${reply.error}`);
-        if (decision === asked && response.status !== 409) setMenuEnabled(true);
+        if (response.status === 409) answered = asked.id;  // asked no more
+        say(`Not taken: ${reply.error}`);
       }
     } catch (error) {
-      show("sent", `Not sent (${error.message}); try again.`);
-      if (decision === asked) setMenuEnabled(true);
+      say(`Not sent (${error.message}); try again.`);
     } finally {
       sending = false;
+      updateMenu();
     }
   }
 
   function onKey(event) {
+    // A held key repeats: only its first press chooses.
+    if (event.repeat && (event.key === "Enter" || event.key === " ")) {
+      event.preventDefault();
+      return;
+    }
     if (!decision || event.altKey || event.ctrlKey || event.metaKey) return;
     if (event.target.closest("input, textarea")) return;  // typing a reason or a message
     if (/^[0-9]$/.test(event.key)) {
@@ -179,8 +286,8 @@
     } else if (event.key === "Enter" && typed) {
       const id = Number(typed);
       typed = "";
-      if (decision.menu.some((option) => option.id === id)) choose(id);
-      else show("sent", `${id} is not on the menu.`);
+      if (decision.menu.some((option) => option.id === id)) choose(decision, id);
+      else say(`${id} is not on the menu.`);
     } else {
       return;
     }
@@ -198,25 +305,37 @@
         const response = await fetch(`/play/api/state${query}`, { headers: auth,
           cache: "no-store" });
         const state = await response.json();
-        if (!response.ok) {
-          show("problem", state.error);
+        if (response.status === 403) {
+          refuseToken();
           return;  // a wrong token stays wrong
         }
+        if (!response.ok) throw new Error(state.error);
+        unreachable = false;
         show("problem", "");
         version = state.version;
         draw(state);
         if (state.ended !== null) return;
       } catch (error) {
         // The server stops with the run: a page that missed the last word learns it here.
+        unreachable = true;
+        updateMenu();
         show("problem", "cocobench run is not answering: the run has ended or was stopped " +
           "(its summary is in the terminal; resume a stopped run with cocobench run --out " +
-          "RUN --resume). Retrying…");
+          "RUN --resume, and open the address it prints). Retrying…");
         await pause(2000);
       }
     }
   }
 
-  $("done").addEventListener("click", () => choose(null));
+  for (const field of DRAFTS) {
+    $(field).addEventListener("input", () => {
+      if (decision) sessionStorage.setItem(draftKey(decision, field), $(field).value);
+    });
+  }
+  document.addEventListener("pointerdown", (event) => { pressedAt = event.timeStamp; }, true);
+  $("done").addEventListener("click", (event) => {
+    if (deliberate(event)) choose(decision, null);
+  });
   document.addEventListener("keydown", onKey);
   follow();
 })();

@@ -15,4 +15,8 @@ CLAIM_BOARD = PlannerSpec(
     uses_models=True,
     description="robots claim the object they will work on, in turn, on a shared board; "
                 "a claimed object is off limits to teammates that round",
+    prompt="agent",  # each robot's own prompt
+    broadcast=True,  # with the message board: the dry run counts it
+    # loop: not declared, since a robot may be asked twice in a round (none of "step",
+    # "round", "led-round"); the dry run assumes one call per robot per landed step.
 )

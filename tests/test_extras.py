@@ -1,0 +1,135 @@
+"""The one place that skips tests needing an extra (tests/conftest.py): a marked test skips,
+with the reason and the install command, exactly when its extra is missing; the markers are
+registered; `--fail-on-skip` fails a session in which anything skipped; CI runs the README's
+test command first, as a newcomer does, then the suite with every extra and no skip."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import tests.conftest as extras
+
+pytest_plugins = ["pytester"]
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def session(pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch) -> pytest.Pytester:
+    """A pytest session in a temporary folder whose conftest is the project's (and no
+    installed plugin: they take seconds to load)."""
+    monkeypatch.setenv("PYTEST_DISABLE_PLUGIN_AUTOLOAD", "1")
+    pytester.makeconftest("from tests.conftest import *  # noqa: F403\n")
+    return pytester
+
+
+def hide_module(name: str):
+    return lambda monkeypatch: monkeypatch.setitem(sys.modules, name, None)
+
+
+HIDE = {
+    "needs_ray": (hide_module("ray"), "ray is not installed (pip install -e '.[ray]')"),
+    "needs_thor": (hide_module("ai2thor"), "ai2thor is not installed (pip install -e '.[thor]')"),
+    "needs_browser": (lambda monkeypatch: monkeypatch.setenv("PATH", ""),
+                      "Debian's chromium is not installed (apt-get install chromium)"),
+    "needs_langgraph_cli": (
+        lambda monkeypatch: monkeypatch.setattr(extras, "LANGGRAPH_CLI", Path("/nonexistent")),
+        "langgraph-cli is not installed (pip install 'langgraph-cli[inmem]"),
+    "llm": (hide_module("xllamacpp"), "xllamacpp is not installed (pip install xllamacpp)"),
+}
+
+
+def test_every_extra_is_hidden_here_and_registered_in_pyproject(pytestconfig):
+    registered = {line.split(":")[0] for line in pytestconfig.getini("markers")}
+    markers = [extra.marker for extra in extras.EXTRAS]
+    assert set(HIDE) == set(markers)
+    assert set(markers) <= registered
+
+
+@pytest.mark.parametrize("marker", list(HIDE))
+def test_a_missing_extra_skips_only_its_tests_naming_the_install(session, monkeypatch, marker):
+    hide, reason = HIDE[marker]
+    hide(monkeypatch)
+    session.makepyfile(f"""
+        import pytest
+
+        @pytest.mark.{marker}
+        def test_needs_it():
+            raise AssertionError("ran without its extra")
+
+        def test_needs_nothing():
+            pass
+    """)
+    result = session.runpytest("-rs")
+    result.assert_outcomes(passed=1, skipped=1)
+    assert reason in result.stdout.str()
+
+
+def test_an_extra_that_is_there_runs_its_tests(session, monkeypatch):
+    monkeypatch.setattr(extras, "EXTRAS", (extras.Extra("needs_ray", lambda: None),))
+    session.makepyfile("""
+        import pytest
+
+        @pytest.mark.needs_ray
+        def test_needs_it():
+            pass
+    """)
+    session.runpytest().assert_outcomes(passed=1)
+
+
+SKIPS_ONE = """
+    import pytest
+
+    def test_skipped():
+        pytest.skip("not here")
+
+    def test_passes():
+        pass
+"""
+
+
+def test_fail_on_skip_fails_a_session_that_skipped(session):
+    session.makepyfile(SKIPS_ONE)
+    assert session.runpytest().ret == pytest.ExitCode.OK
+    result = session.runpytest("--fail-on-skip")
+    assert result.ret == pytest.ExitCode.TESTS_FAILED
+    assert "--fail-on-skip: 1 tests skipped" in result.stdout.str()
+
+
+def test_fail_on_skip_passes_a_session_without_skips(session):
+    session.makepyfile("def test_passes():\n    pass\n")
+    assert session.runpytest("--fail-on-skip").ret == pytest.ExitCode.OK
+
+
+def test_no_test_skips_on_its_own_import():
+    # Skips on a missing piece go through a marker (tests/conftest.py), never a module's own
+    # importorskip: one place says what each extra is and how to install it.
+    offenders = [str(path.relative_to(ROOT)) for path in (ROOT / "tests").rglob("*.py")
+                 if path.name != "test_extras.py" and "importorskip(" in path.read_text()]
+    assert offenders == []
+
+
+README_TEST_COMMAND = "python -m pip install -e '.[dev]' && python -m pytest"
+
+
+def test_ci_runs_the_readme_test_command_first_in_a_fresh_venv():
+    readme = (ROOT / "README.md").read_text()
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert README_TEST_COMMAND in readme
+    fresh_venv, readme_command = ci.index("python -m venv"), ci.index(README_TEST_COMMAND)
+    extras_installed = ci.index("pip_install -e '.[dev,thor,ray]'")
+    assert fresh_venv < readme_command < extras_installed
+    assert ci.index("python -m pytest --fail-on-skip") > extras_installed
+
+
+def test_the_processes_tests_start_hear_ctrl_c():
+    # Even when the session was started with Ctrl-C ignored (in the background): tests that
+    # interrupt a run send it SIGINT, as a person at a terminal would.
+    probe = "import signal; print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                          timeout=60)
+    assert done.stdout.strip() == "True"
