@@ -13,8 +13,9 @@ capped with `RLIMIT_AS`, so a runaway fails this test with a `MemoryError` inste
 the machine down, and `SIGALRM` stops an episode that never ends (one that never yields
 included). Measured on the 2-core development machine, shared with other work: the 7,464
 episodes take 470-560 s of CPU in all; 7 minutes of wall time at a load of 3-4 (34 minutes at
-a load of 12). The workers' peak RSS was 256 MB, most of it the loaded suites and the
-simulator's bounded caches.
+a load of 12). A worker holds up to about 256 MB between episodes, most of it the loaded suites
+and the simulator's bounded caches; the memory bound is on each episode's own peak above what
+its worker held when it started.
 """
 
 from __future__ import annotations
@@ -42,10 +43,10 @@ from cocobench_agents.models import ModelPool, ModelSettings
 from tests.paths import SHARED_TASKS
 
 # -- the stated bounds ------------------------------------------------------------------------
-# How far a worker's peak resident memory rose above what it held once the suites were
-# loaded, after each of its episodes: a bound on each episode's own peak (the rest is the
-# simulator's bounded caches). Relative, since what the imports take differs between
-# environments (a fresh venv's worker starts near 500 MB, this machine's near 250 MB).
+# How far a worker's resident memory peaked, during one episode, above what it held when the
+# episode started (the kernel's peak, reset before each episode). Relative: what a worker
+# holds before (imports, suites, the simulator's bounded caches) differs between environments,
+# and a fresh venv's workers peaked 450 MB higher while importing.
 PEAK_RSS_MB = 300
 FRAME_BYTES = 1_000_000  # any agent's frame, or the team's merged frame, as a VLM gets it
 PROMPT_CHARS = 24_000  # any prompt a model gets
@@ -93,7 +94,7 @@ class EpisodeOverran(BaseException):
 
 
 _CONFIGS: dict[str, list[TaskConfig]] = {}
-_BASE_RSS_MB = [0.0]  # the worker's resident memory once started (then once suites loaded)
+_BASE_RSS_MB = [0.0]  # the worker's resident memory when its current episode started
 
 
 def _sources() -> dict[str, list[TaskConfig]]:
@@ -106,7 +107,6 @@ def _start_worker() -> None:
     limit = _address_space() + ADDRESS_SPACE_HEADROOM
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     signal.signal(signal.SIGALRM, _overran)
-    _BASE_RSS_MB[0] = _current_rss_mb()
 
 
 def _address_space() -> int:
@@ -122,13 +122,22 @@ def _overran(signum: int, frame: Any) -> None:
 
 
 def _rss_mb() -> float:
-    """How far this worker's peak resident memory rose above its base."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024 - _BASE_RSS_MB[0]
+    """How far this worker's resident memory peaked above the start of its episode."""
+    return _status_mb("VmHWM") - _BASE_RSS_MB[0]
 
 
-def _current_rss_mb() -> float:
-    pages = int(Path("/proc/self/statm").read_text().split()[1])
-    return pages * resource.getpagesize() / (1 << 20)
+def _start_episode_peak() -> None:
+    """Reset the kernel's record of this process's peak (Linux 4.0+) and note where it
+    starts."""
+    Path("/proc/self/clear_refs").write_text("5")
+    _BASE_RSS_MB[0] = _status_mb("VmRSS")
+
+
+def _status_mb(field: str) -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(f"{field}:"):
+            return int(line.split()[1]) / 1024
+    raise RuntimeError(f"no {field} in /proc/self/status")
 
 
 def guarded(job: Job, task_id: str, play: Callable[[], Outcome],
@@ -136,6 +145,7 @@ def guarded(job: Job, task_id: str, play: Callable[[], Outcome],
     """`play()` under the episode alarm; a runaway, or any error, becomes an `Outcome`
     naming the cause (the sweep reports every breach, not only the first)."""
     start = time.perf_counter()
+    _start_episode_peak()
     signal.alarm(seconds)
     try:
         return play()
@@ -149,7 +159,6 @@ def play(job: Job) -> Outcome:
     """Run one job in a worker (see `_start_worker`)."""
     if not _CONFIGS:  # once per worker
         _CONFIGS.update(_sources())
-        _BASE_RSS_MB[0] = _current_rss_mb()
     config = _CONFIGS[job.source][job.index]
     return guarded(job, config.task_id, lambda: _episode(job, config))
 
@@ -192,7 +201,7 @@ def breaches(outcome: Outcome) -> Iterator[str]:
     checks = (
         (outcome.error, f"ended with {outcome.error}"),
         (outcome.rss_mb > PEAK_RSS_MB,
-         f"peak RSS {outcome.rss_mb:.0f} MB above the worker's base > {PEAK_RSS_MB}"),
+         f"peak RSS {outcome.rss_mb:.0f} MB above the episode's start > {PEAK_RSS_MB}"),
         (outcome.frame_bytes > FRAME_BYTES, f"a {outcome.frame_bytes}-byte frame"),
         (outcome.prompt_chars > PROMPT_CHARS, f"a {outcome.prompt_chars}-character prompt"),
         (outcome.seconds > EPISODE_SECONDS, f"took {outcome.seconds:.1f} s"),
