@@ -3,7 +3,6 @@ the browser tests' page, screenshots folder, and the oracle's calls of the demo 
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -12,7 +11,7 @@ import pytest
 
 from tests.human.desks import oracle_calls
 from tests.play.played_run import DEMO, WAIT_S, PlayedRun, StartRun
-from tests.viewer.browser import chromium_page
+from tests.viewer.browser import chromium_page, screenshots_folder
 
 
 @pytest.fixture
@@ -37,9 +36,7 @@ def calls(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
 
 @pytest.fixture
 def shots(tmp_path: Path) -> Path:
-    folder = Path(os.environ.get("COCOBENCH_VIEWER_SCREENSHOTS") or tmp_path / "screenshots")
-    folder.mkdir(parents=True, exist_ok=True)
-    return folder
+    return screenshots_folder(tmp_path)
 
 
 @pytest.fixture

@@ -17,7 +17,7 @@ from cocobench_agents.play import server as play_server
 from cocobench_agents.play.desk import PlayDesk
 from cocobench_agents.play.server import POLICY, TOKEN_HEADER, PlayServer
 from tests.play.test_play_server import Engine, decision
-from tests.viewer.browser import chromium_page
+from tests.viewer.browser import assert_inline_script_refused, chromium_page
 from tests.viewer.hostile import Answer, Markers, plant_markers, send, targets
 
 
@@ -129,8 +129,5 @@ def test_the_page_works_under_its_policy(played: Played) -> None:
                                                          "Color")
         assert background == "rgb(35, 40, 58)"  # the inline style applied
         assert refused == []
-        with page.expect_console_message(lambda m: "Policy" in m.text):
-            page.evaluate("document.body.appendChild(document.createElement('script')).text"
-                          " = 'window.injected = 1'")
-        assert page.evaluate("window.injected") is None
+        assert_inline_script_refused(page)
     assert len(refused) == 1 and "script-src" in refused[0], refused

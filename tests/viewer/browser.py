@@ -4,9 +4,11 @@ for the viewer's end-to-end test and `bench/viewer.py`."""
 from __future__ import annotations
 
 import contextlib
+import os
 import shutil
 import tempfile
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -38,3 +40,19 @@ def chromium_page(width: int = 1400, height: int = 900) -> Iterator[Any]:
             yield context.new_page()
         finally:
             context.close()
+
+
+def screenshots_folder(tmp_path: Path) -> Path:
+    """Where browser tests keep their screenshots (COCOBENCH_VIEWER_SCREENSHOTS, else a
+    temporary folder)."""
+    folder = Path(os.environ.get("COCOBENCH_VIEWER_SCREENSHOTS") or tmp_path / "screenshots")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def assert_inline_script_refused(page: Any) -> None:
+    """An inline script added to the page does not run, and the refusal is logged."""
+    with page.expect_console_message(lambda m: "Policy" in m.text):
+        page.evaluate("document.body.appendChild(document.createElement('script')).text"
+                      " = 'window.injected = 1'")
+    assert page.evaluate("window.injected") is None

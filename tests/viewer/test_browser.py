@@ -4,7 +4,6 @@ them. Screenshots are kept under $COCOBENCH_VIEWER_SCREENSHOTS (else the test's 
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -18,16 +17,14 @@ from cocobench_agents.viewer.pages import Pages
 from cocobench_agents.viewer.server import ViewerServer
 from cocobench_agents.viewer.source import Catalog
 
-from .browser import chromium_page
+from .browser import chromium_page, screenshots_folder
 
 pytestmark = [pytest.mark.slow, pytest.mark.needs_browser]
 
 
 @pytest.fixture
 def shots(tmp_path: Path) -> Path:
-    folder = Path(os.environ.get("COCOBENCH_VIEWER_SCREENSHOTS") or tmp_path / "screenshots")
-    folder.mkdir(parents=True, exist_ok=True)
-    return folder
+    return screenshots_folder(tmp_path)
 
 
 @pytest.fixture

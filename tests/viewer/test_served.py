@@ -22,7 +22,7 @@ from cocobench_agents.viewer.pages import Pages
 from cocobench_agents.viewer.server import POLICY, STATIC, ViewerServer
 from cocobench_agents.viewer.source import Catalog
 
-from .browser import chromium_page
+from .browser import assert_inline_script_refused, chromium_page
 from .hostile import Markers, encodings, plant_markers, send, targets
 
 
@@ -198,8 +198,5 @@ def test_the_pages_work_under_the_policy(hostile: Hostile) -> None:
         page.wait_for_selector("details.prompt[open]")
         assert refused == []
         # an inline script is refused, and the refusal is logged where this test looks
-        with page.expect_console_message(lambda m: "Policy" in m.text):
-            page.evaluate("document.body.appendChild(document.createElement('script')).text"
-                          " = 'window.injected = 1'")
-        assert page.evaluate("window.injected") is None
+        assert_inline_script_refused(page)
     assert len(refused) == 1 and "script-src 'self'" in refused[0], refused
