@@ -25,7 +25,7 @@ from cocobench_agents.harness.ray_limit import LimitedPool
 from cocobench_agents.harness.runaway import rss_bytes
 from cocobench_agents.harness.store import EpisodeKey
 from cocobench_agents.models import ModelPool, ModelSettings
-from cocobench_agents.models.registry import needed_key_variables
+from cocobench_agents.models.pool import needed_key_variables
 
 THOR_GPU_VARIABLE = "COCOBENCH_THOR_GPU_DEVICE"
 WATCH_GROUP = "watch"  # the concurrency group (own thread, own loop) of `health`

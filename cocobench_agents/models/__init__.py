@@ -37,7 +37,7 @@ _EXPORTS = {
     "ModelError": ".protocol",
     "ModelReply": ".protocol",
     "ModelRequest": ".protocol",
-    "ModelPool": ".registry",
+    "ModelPool": ".pool",
     "Completion": ".remote",
     "RemoteClient": ".remote",
     "ReplayClient": ".replay",

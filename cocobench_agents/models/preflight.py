@@ -16,7 +16,7 @@ from collections.abc import Iterable
 
 from .builtin import is_builtin
 from .protocol import MenuOption, ModelError, ModelRequest
-from .registry import ModelPool
+from .pool import ModelPool
 from .secrets import redact
 
 PROBE_PROMPT = "This is a connection check. Reply exactly:\nREASON: ok\nACTION: 1"

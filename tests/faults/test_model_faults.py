@@ -23,7 +23,7 @@ import pytest
 
 from cocobench_agents.cli import main
 from cocobench_agents.models import TRANSPORTS, ModelRequest, ModelSettings, ResponseCache
-from cocobench_agents.models.registry import ModelPool
+from cocobench_agents.models.pool import ModelPool
 from tests.models.fake_openai import SERVER_ERROR, Behaviour, FakeOpenAI, error, ok
 
 KEY_ENV = "FAKE_PROVIDER_API_KEY"
