@@ -20,6 +20,7 @@ from benchmark_adapter.oracles import run_oracle
 from benchmark_adapter.oracles.runner import VALIDATION_MAX_STEPS
 from benchmark_adapter.sim.backends import make_controller
 from benchmark_adapter.tasks.config import TaskConfig
+from benchmark_adapter.vocabulary import DEFAULT_BACKEND, EMBEDDED
 
 METRIC_GATE = 0.95
 # Construct statuses that may pass the metric gate without a score, and why. Empty: every
@@ -47,10 +48,10 @@ class ValidationRow:
 
 
 def validate_task(config: TaskConfig, max_steps: int = VALIDATION_MAX_STEPS,
-                  backend: str = "embedded") -> ValidationRow:
+                  backend: str = DEFAULT_BACKEND) -> ValidationRow:
     """Run the oracle of one instance on `backend` and apply the three gates."""
     try:
-        controller = None if backend == "embedded" else make_controller(config, backend)
+        controller = None if backend == EMBEDDED else make_controller(config, backend)
         trajectory = run_oracle(config, controller, max_steps=max_steps)
         result = score_trajectory(trajectory)
     except Exception as exc:  # noqa: BLE001 - a broken instance is a failed row, not a crash
@@ -104,7 +105,7 @@ def _failure_reason(trajectory: dict[str, Any], result: Any) -> str:
     return ""
 
 
-def validate_tasks(configs: Iterable[TaskConfig], jobs: int = 1, backend: str = "embedded"
+def validate_tasks(configs: Iterable[TaskConfig], jobs: int = 1, backend: str = DEFAULT_BACKEND
                    ) -> Iterator[ValidationRow]:
     """Validate instances, `jobs` processes at a time; rows come back in input order."""
     configs = list(configs)

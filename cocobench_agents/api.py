@@ -9,6 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from benchmark_adapter.vocabulary import IMAGE
+from cocobench_agents.conditions import condition_name
 from cocobench_agents.engine.config import layered_request
 from cocobench_agents.engine.errors import is_user_error
 from cocobench_agents.engine.request import RunRequest, leaf_paths, nest
@@ -19,6 +21,9 @@ from cocobench_agents.engine.results import EvalResults
 _ALIASES = {"timeout": "timeout_s", "extra": "extra_params", "extra_json": "extra_params",
             "task_id": "task_ids", "cache": "cache_dir", "obs_mode": "obs_modes",
             "planner": "planners", "prompt_suite": "prompt_suites", "model": "models"}
+#: The conditions of a call that names none: the request's default planner (centralized, C0)
+#: under its default observation mode.
+_DEFAULT_CONDITIONS = condition_name("C0", IMAGE)
 #: Keywords of the call, not of the request.
 _CALL = ("resume", "retry_errors")
 
@@ -33,7 +38,7 @@ class EvaluationError(ValueError):
 
 def evaluate(source: str | Path | Sequence[str | Path] | None = None, *,
              models: str | Sequence[str], out: str | Path,
-             conditions: str | Sequence[str] = "C0_image",
+             conditions: str | Sequence[str] = _DEFAULT_CONDITIONS,
              planners: Sequence[str] | None = None,
              prompt_suites: Sequence[str] | None = None,
              **run_options: Any) -> EvalResults:
@@ -74,7 +79,7 @@ async def evaluate_async(source: str | Path | Sequence[str | Path] | None = None
     return await asyncio.to_thread(evaluate, source, **kwargs)
 
 
-def request_of(source: Any = None, *, models: Any, out: Any, conditions: Any = "C0_image",
+def request_of(source: Any = None, *, models: Any, out: Any, conditions: Any = _DEFAULT_CONDITIONS,
                planners: Any = None, prompt_suites: Any = None, **options: Any) -> RunRequest:
     """The `RunRequest` that `evaluate` stands for (`TypeError` for an unknown keyword)."""
     names = [c for part in _listed(conditions) for c in part.split(",") if c]

@@ -23,7 +23,7 @@ from __future__ import annotations
 import asyncio
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 from langgraph.config import get_stream_writer
 from langgraph.graph import END, START, StateGraph
@@ -32,6 +32,13 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from typing_extensions import NotRequired, TypedDict
 
 from benchmark_adapter.tasks import TaskConfig, load_task, load_tasks
+from benchmark_adapter.vocabulary import (
+    DEFAULT_BACKEND,
+    DEFAULT_TASKS,
+    IMAGE,
+    Backend,
+    ObservationMode,
+)
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec, run_episode
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.harness.human_log import answer_of, answers_again
@@ -39,8 +46,6 @@ from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.models.human import Answer, Decision, HumanTurn
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
 from cocobench_agents.tools import prompt_hash
-
-DEFAULT_SOURCE = "cocobench-240"
 
 
 class EpisodeInput(TypedDict):
@@ -52,9 +57,9 @@ class EpisodeInput(TypedDict):
     #: Another model for some agents of a decentralized team ({"agent_1": "human"}).
     agent_models: NotRequired[dict[str, str]]
     planner: NotRequired[str]  # a registered planner (default centralized)
-    obs_mode: NotRequired[Literal["image", "blind"]]
+    obs_mode: NotRequired[ObservationMode]
     budget: NotRequired[int]  # landed steps allowed (default: the instance's step budget)
-    backend: NotRequired[Literal["embedded", "ai2thor"]]
+    backend: NotRequired[Backend]
     prompt_suite: NotRequired[str]
     #: How remote models are called: the fields of `ModelSettings`, as in a run request's
     #: ``model_settings`` (api_base, api_key_env — a variable's NAME —, temperature, …).
@@ -76,7 +81,7 @@ class EpisodeState(EpisodeInput, EpisodeOutput, total=False):
     streamed: int  # the steps already streamed (a replay does not stream them again)
 
 
-def resolve_task(task: str, suite: str = DEFAULT_SOURCE) -> TaskConfig:
+def resolve_task(task: str, suite: str = DEFAULT_TASKS) -> TaskConfig:
     """The config of `task`: a config file, or an instance id of `suite`."""
     if Path(task).is_file():
         return load_task(task)
@@ -89,15 +94,15 @@ def resolve_task(task: str, suite: str = DEFAULT_SOURCE) -> TaskConfig:
 
 def episode_spec(state: EpisodeInput) -> EpisodeSpec:
     """The episode `state` asks for, with the documented defaults."""
-    config = resolve_task(state["task"], state.get("suite") or DEFAULT_SOURCE)
+    config = resolve_task(state["task"], state.get("suite") or DEFAULT_TASKS)
     planner = state.get("planner") or "centralized"
     models = {DEFAULT_MODEL_KEY: state.get("model") or "greedy"}
     if planner_spec(planner).decentralized:  # as a run: only their agents have models
         models.update(state.get("agent_models") or {})
     return EpisodeSpec(config=config, planner=planner, models=models,
-                       obs_mode=state.get("obs_mode") or "image",
+                       obs_mode=state.get("obs_mode") or IMAGE,
                        prompt_suite=state.get("prompt_suite") or DEFAULT_SUITE,
-                       backend=state.get("backend") or "embedded",
+                       backend=state.get("backend") or DEFAULT_BACKEND,
                        max_steps=state.get("budget"))
 
 

@@ -14,6 +14,7 @@ from benchmark_adapter.oracles import oracle_plan
 from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.tasks.checks import MAX_STEP_BUDGET
+from benchmark_adapter.vocabulary import DEFAULT_BACKEND, EMBEDDED, IMAGE
 from cocobench_agents.graphs import PlannerContext, compiled_graph, planner_spec
 from cocobench_agents.graphs.node_errors import NodeFailure, PlannerNodeError, node_failure
 from cocobench_agents.models.human import HUMAN, HumanTurn
@@ -32,9 +33,9 @@ class EpisodeSpec:
     config: TaskConfig
     planner: str = "centralized"
     models: dict[str, str] = field(default_factory=lambda: {DEFAULT_MODEL_KEY: "greedy"})
-    obs_mode: str = "image"
+    obs_mode: str = IMAGE
     prompt_suite: str = DEFAULT_SUITE
-    backend: str = "embedded"
+    backend: str = DEFAULT_BACKEND
     max_steps: int | None = None  # overrides difficulty.step_budget
     stable_ids: bool = False
     sample_index: int = 0
@@ -54,7 +55,7 @@ class EpisodeSpec:
 
     def controller(self) -> Controller | None:
         """A simulator for `backend` (None for the embedded one: the Episode builds it)."""
-        if self.backend == "embedded":
+        if self.backend == EMBEDDED:
             return None
         from benchmark_adapter.sim.backends import make_controller
 

@@ -37,7 +37,7 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("skills", "goals", "menu", "trajectory", "metrics"),
         ("sim",),  # simulators ground task configs
         ("tasks",),
-        ("vocabulary",),  # words several layers share: skill names, affordance flags
+        ("vocabulary",),  # words several layers share: skills, observation modes, dimensions, …
     ),
     "cocobench_agents": (
         ("__init__", "cli"),  # the Python API's name list, the command: nothing imports them
@@ -51,7 +51,7 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("graphs",),  # planners never import the harness or the runner
         ("tools",),
         ("models", "prompts"),  # never import the graphs
-        ("setting_kinds", "version", "lazy"),
+        ("setting_kinds", "version", "lazy", "conditions"),  # conditions: `C0_image` names
     ),
 }
 #: Units made of several modules of a subpackage.
@@ -60,7 +60,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
 }
 #: Units that may import only some of the units below them (besides benchmark_adapter).
 ONLY: dict[str, tuple[str, ...]] = {
-    "cocobench_agents.reports": ("run folders",),
+    "cocobench_agents.reports": ("run folders", "conditions"),
 }
 #: What a part must never import, and why.
 FORBIDDEN: dict[str, tuple[str, ...]] = {

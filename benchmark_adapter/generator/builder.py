@@ -21,6 +21,7 @@ from benchmark_adapter.generator.scenes import Scene
 from benchmark_adapter.generator.templates.base import Draft, TaskType, forced_put
 from benchmark_adapter.sim.embedded.affordances import affordances_of
 from benchmark_adapter.tasks.config import TaskConfig
+from benchmark_adapter.vocabulary import LOAD_BALANCING, MUTUAL_EXCLUSION
 
 GENERATOR_NAME = "cocobench-agents generator"
 GENERATOR_VERSION = "1.0.0"
@@ -146,9 +147,9 @@ def _add_budgets(config: dict[str, Any], task_type: TaskType, draft: Draft) -> N
     """Difficulty, budgets and reference makespans from the oracle plan's length."""
     stats = oracle_stats(TaskConfig.model_validate(config))
     steps = oracle_steps(stats.calls)
-    if task_type.dim == "D1":
+    if task_type.dim == LOAD_BALANCING:
         config["task_constraints"]["optimal_makespan"] = stats.makespan
-    k_makespan = stats.calls if task_type.dim == "D3" else None
+    k_makespan = stats.calls if task_type.dim == MUTUAL_EXCLUSION else None
     difficulty = {
         "object_count": draft.object_count,
         "step_budget": step_budget(task_type.cell, steps),

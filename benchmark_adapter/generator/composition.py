@@ -18,6 +18,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from benchmark_adapter.generator.templates import TASK_TYPES
+from benchmark_adapter.vocabulary import DIMENSIONS
 
 TEAM_SIZES = (2, 3, 4)
 FULL_COMPOSITION: dict[str, tuple[int, int, int]] = {
@@ -87,7 +88,7 @@ def subset_ids(instances: Sequence[tuple[str, str, int, str]]) -> list[str]:
     """The `cocobench-240` task ids from (task id, dimension, team size, task type) rows."""
     rng = random.Random(SUBSET_SEED)
     chosen: list[str] = []
-    for dim in ("D1", "D2", "D3", "D4"):
+    for dim in DIMENSIONS:
         for agents in TEAM_SIZES:
             rows = [r for r in instances if r[1] == dim and r[2] == agents]
             counts = {slug: sum(r[3] == slug for r in rows) for slug in _types_of(rows)}

@@ -24,6 +24,7 @@ from benchmark_adapter.sim.embedded import EmbeddedController
 from benchmark_adapter.sim.embedded.world import World
 from benchmark_adapter.tasks.config import TaskConfig
 from benchmark_adapter.validation import validate_task
+from benchmark_adapter.vocabulary import DEFAULT_BACKEND
 
 GATES = ("placement", "oracle", "metric")
 KNIVES = ("Knife", "ButterKnife")
@@ -51,7 +52,7 @@ class Verdict:
         return self.gate is None
 
 
-def judge(config_data: dict[str, Any], backend: str = "embedded") -> Verdict:
+def judge(config_data: dict[str, Any], backend: str = DEFAULT_BACKEND) -> Verdict:
     """Run the three gates on a candidate config, stopping at the first that rejects it.
 
     The placement gate reads the embedded world; the oracle and metric gates run on

@@ -29,6 +29,7 @@ from benchmark_adapter.generator.scenes import (
     seeded_rng,
 )
 from benchmark_adapter.generator.templates import TASK_TYPES, TaskType, Ungroundable
+from benchmark_adapter.vocabulary import DEFAULT_BACKEND
 
 MAX_SEEDS = 12  # spawn seeds a stratum may draw on before the generator gives up
 
@@ -83,7 +84,7 @@ def candidates(stratum: Stratum) -> Iterator[Candidate]:
                                  stratum.agents, seed)
 
 
-def judge_all(batch: list[Candidate], pool: Executor | None, backend: str = "embedded"
+def judge_all(batch: list[Candidate], pool: Executor | None, backend: str = DEFAULT_BACKEND
               ) -> list[Verdict]:
     """Verdicts for a batch, in order."""
     configs = [c.config for c in batch if c.config is not None]
@@ -95,7 +96,7 @@ def judge_all(batch: list[Candidate], pool: Executor | None, backend: str = "emb
     ]
 
 
-def run_strata(strata: list[Stratum], jobs: int = 1, backend: str = "embedded"
+def run_strata(strata: list[Stratum], jobs: int = 1, backend: str = DEFAULT_BACKEND
                ) -> list[StratumResult]:
     """Fill every stratum with candidates that pass the gates."""
     streams = {s: candidates(s) for s in strata}
@@ -138,7 +139,7 @@ def _record(result: StratumResult, candidate: Candidate, verdict: Verdict) -> No
         result.kept.append(candidate.config)
 
 
-def generate(jobs: int = 1, backend: str = "embedded") -> list[StratumResult]:
+def generate(jobs: int = 1, backend: str = DEFAULT_BACKEND) -> list[StratumResult]:
     """Run the generator for the whole of `cocobench-full`."""
     return run_strata(full_strata(), jobs, backend)
 

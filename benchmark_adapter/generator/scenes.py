@@ -22,6 +22,7 @@ from benchmark_adapter.generator.rooms import ROOM_SPECS
 from benchmark_adapter.generator.spawn import spawn_items
 from benchmark_adapter.sim.embedded.affordances import affordances_of
 from benchmark_adapter.sim.embedded.world import GRID, build_floor, make_object
+from benchmark_adapter.vocabulary import EMBEDDED
 
 SCENES_PER_ROOM = 30
 
@@ -36,7 +37,7 @@ class Scene:
     room: str
     seed: int
     objects: tuple[SceneObject, ...]
-    source: str = "embedded"  # or "thor" for FloorPlan metadata
+    source: str = EMBEDDED  # or "thor" for FloorPlan metadata
 
     def get(self, object_id: str) -> SceneObject:
         """The object with this id."""

@@ -24,8 +24,9 @@ from typing import Any
 from benchmark_adapter.generator.composition import SUBSET_SEED, subset_ids
 from benchmark_adapter.generator.jsonfmt import dumps
 from benchmark_adapter.generator.pipeline import StratumResult
+from benchmark_adapter.vocabulary import FULL_SUITE as FULL
+from benchmark_adapter.vocabulary import SUBSET_SUITE as SUBSET
 
-FULL, SUBSET = "cocobench-full", "cocobench-240"
 SUITES = (FULL, SUBSET)
 SUBSET_FILE = f"subsets/{SUBSET}.json"
 

@@ -13,6 +13,14 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from benchmark_adapter.vocabulary import (
+    DIMENSIONS,
+    LOAD_BALANCING,
+    MUTUAL_EXCLUSION,
+    PRECEDENCE,
+    PRODUCER_CONSUMER,
+)
+
 from .errors import TrajectoryError
 from .general import n_agents, per_agent_actions
 from .steps import (
@@ -30,7 +38,6 @@ from .steps import (
     task_config,
 )
 
-DIMENSIONS: tuple[str, ...] = ("D1", "D2", "D3", "D4")
 STATUSES: tuple[str, ...] = ("scored", "not_engaged", "low_signal", "na", "na_no_actions")
 #: Fewest mechanism events a rate may rest on (the reference's CONSTRUCT_MIN_SAMPLE).
 MIN_SAMPLE = 2
@@ -362,10 +369,10 @@ def _unknown_sample(ep: _Episode) -> int:
 
 
 _DIMS: dict[str, tuple[Callable[[_Episode], int], Callable[[_Episode], Formula]]] = {
-    "D1": (_d1_sample, _d1_formula),
-    "D2": (_d2_sample, _d2_formula),
-    "D3": (_d3_sample, _d3_formula),
-    "D4": (_d4_sample, _d4_formula),
+    LOAD_BALANCING: (_d1_sample, _d1_formula),
+    PRECEDENCE: (_d2_sample, _d2_formula),
+    MUTUAL_EXCLUSION: (_d3_sample, _d3_formula),
+    PRODUCER_CONSUMER: (_d4_sample, _d4_formula),
 }
 
 
@@ -440,9 +447,9 @@ def _d4_mechanism(ep: _Episode) -> dict[str, Any]:
 
 
 _MECHANISMS: dict[str, Callable[[_Episode], dict[str, Any]]] = {
-    "D1": lambda _ep: {},  # the mechanism is the steps themselves: each agent's load
-    "D2": _d2_mechanism,
-    "D3": _d3_mechanism,
-    "D4": _d4_mechanism,
+    LOAD_BALANCING: lambda _ep: {},  # the mechanism is the steps themselves: each agent's load
+    PRECEDENCE: _d2_mechanism,
+    MUTUAL_EXCLUSION: _d3_mechanism,
+    PRODUCER_CONSUMER: _d4_mechanism,
 }
 

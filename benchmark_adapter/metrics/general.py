@@ -6,6 +6,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from benchmark_adapter.vocabulary import PRECEDENCE
+
 from .errors import TrajectoryError
 from .steps import (
     AFFORDANCE_MARKERS,
@@ -134,7 +136,7 @@ def legal_plan(traj: Mapping[str, Any]) -> bool | None:
 def d2_legality_gate(dim: str | None, success: bool, legal: bool | None) -> bool:
     """Success as the batch evaluator reports it: D2 success also needs a legal plan."""
     # legal None (no steps) also fails the gate, exactly as `not legal_plan` does.
-    return success and not (dim == "D2" and not legal)
+    return success and not (dim == PRECEDENCE and not legal)
 
 
 def n_agents(config: Mapping[str, Any]) -> int:

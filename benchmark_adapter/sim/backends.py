@@ -12,12 +12,11 @@ from typing import Any
 
 from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks.config import TaskConfig
-
-DEFAULT_BACKEND = "embedded"
+from benchmark_adapter.vocabulary import AI2THOR, DEFAULT_BACKEND, EMBEDDED
 
 
 def _embedded(config: TaskConfig, **options: Any) -> Controller:
-    _no_options("embedded", options)
+    _no_options(EMBEDDED, options)
     from benchmark_adapter.sim.embedded import EmbeddedController
 
     return EmbeddedController(config)
@@ -30,8 +29,8 @@ def _ai2thor(config: TaskConfig, **options: Any) -> Controller:
 
 
 BACKENDS: dict[str, Callable[..., Controller]] = {
-    "embedded": _embedded,
-    "ai2thor": _ai2thor,
+    EMBEDDED: _embedded,
+    AI2THOR: _ai2thor,
 }
 """Backend name → `factory(config, **options)`."""
 
@@ -53,7 +52,7 @@ def controller_factory(
     """A picklable `config → controller` for worker processes; checks name and options now,
     so a typo fails before the first episode rather than in every worker."""
     _factory_for(backend)
-    if backend == "ai2thor":
+    if backend == AI2THOR:
         from benchmark_adapter.sim.thor import ThorOptions
 
         ThorOptions.from_env(**options)
@@ -67,7 +66,7 @@ def check_backend(backend: str = DEFAULT_BACKEND, **options: Any) -> None:
     the name, the options and, for `ai2thor`, the package and a renderer (raises
     `ThorUnavailable` with the remedy). Call it once at the start of a command."""
     controller_factory(backend, **options)
-    if backend == "ai2thor":
+    if backend == AI2THOR:
         from benchmark_adapter.sim.thor import ThorOptions, preflight
         from benchmark_adapter.sim.thor.loader import require_ai2thor
 

@@ -6,11 +6,11 @@ reads. Aliases used by goals and constraints must be defined in `init_state.obje
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
-Dim = Literal["D1", "D2", "D3", "D4"]
+from benchmark_adapter.vocabulary import Dimension
 
 
 class _Open(BaseModel):
@@ -68,7 +68,7 @@ class TaskConfig(_Open):
     """One CoCoBench instance."""
 
     task_id: str
-    coordination_dim: Dim
+    coordination_dim: Dimension
     task_family: str
     task_name: str
     scene_id: str

@@ -18,6 +18,8 @@ from typing import Literal
 
 import click
 
+from benchmark_adapter.vocabulary import DEMO_SUITE
+
 Status = Literal["ok", "warn", "fail"]
 
 MIN_PYTHON = (3, 10)
@@ -41,7 +43,6 @@ API_KEYS = (
     "XAI_API_KEY",
     "AZURE_API_KEY",
 )
-DEMO_SUITE = "demo"
 DOCS = "docs/ai2thor-backend.md"
 OFFLINE_BUILD = (
     "offline? copy a downloaded ~/.ai2thor/releases/thor-<Platform>-<commit>/ here, or set "

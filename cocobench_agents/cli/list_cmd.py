@@ -6,6 +6,7 @@ import json
 
 import click
 
+from benchmark_adapter.vocabulary import DEFAULT_TASKS
 from cocobench_agents.cli.options import load_source, missing_option
 from cocobench_agents.cli.tables import table
 
@@ -28,7 +29,7 @@ def instance_record(config) -> dict:
 
 
 @click.command("list")
-@click.argument("source", default="cocobench-240", required=False)
+@click.argument("source", default=DEFAULT_TASKS, required=False)
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list instead of a table.")
 @missing_option
 def list_command(source: str, as_json: bool, missing: str) -> None:

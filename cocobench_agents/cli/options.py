@@ -6,13 +6,14 @@ import click
 
 from benchmark_adapter.sim.backends import BACKENDS
 from benchmark_adapter.tasks import TaskConfig
+from benchmark_adapter.vocabulary import DEFAULT_BACKEND
 
 process_jobs_option = click.option(
     "--jobs", "-j", type=click.IntRange(min=0), default=1, show_default=True,
     help="Worker processes (0 = one per core).")
 
 backend_option = click.option(
-    "--backend", type=click.Choice(sorted(BACKENDS)), default="embedded", show_default=True,
+    "--backend", type=click.Choice(sorted(BACKENDS)), default=DEFAULT_BACKEND, show_default=True,
     help="Simulator: the embedded one, or real AI2-THOR (pip install 'cocobench-agents[thor]').")
 
 

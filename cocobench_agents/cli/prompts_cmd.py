@@ -12,6 +12,7 @@ import click
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.tasks import TaskConfig, load_tasks
+from benchmark_adapter.vocabulary import DEFAULT_TASKS, IMAGE, OBSERVATION_MODES
 from cocobench_agents.cli.tables import table
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.prompts import (
@@ -25,7 +26,6 @@ from cocobench_agents.prompts import (
 )
 from cocobench_agents.tools import EpisodeTools
 
-DEFAULT_TASKS = "cocobench-240"
 # How each built-in strategy asks for its first decision: the team prompt, one agent's prompt
 # (with or without the message board), or the leader's prompt.
 FIRST_PROMPT = {"centralized": "team", "decentralized": "agent",
@@ -83,7 +83,7 @@ def export_command(name: str, directory: Path) -> None:
 @click.option("--agent", default=None,
               help="The agent whose prompt to show (decentralized planners; default: the "
                    "first).")
-@click.option("--obs", "obs_mode", type=click.Choice(["image", "blind"]), default="image",
+@click.option("--obs", "obs_mode", type=click.Choice(list(OBSERVATION_MODES)), default=IMAGE,
               show_default=True, help="Observation mode.")
 def show_command(suite_spec: str, task: str, source: str, planner: str, agent: str | None,
                  obs_mode: str) -> None:
@@ -141,7 +141,7 @@ def _caption(suite: PromptSuite, config: TaskConfig, planner: str, agent: str | 
              obs_mode: str) -> str:
     who = f"agent={agent}" if agent else "team"
     images = ""
-    if obs_mode == "image":
+    if obs_mode == IMAGE:
         view = "its own view" if agent else "the agents' views side by side"
         images = f"; the model also gets {view} as an image"
     return (f"# step 0 prompt · suite {suite.spec} (hash {suite.content_hash[:12]}) · "

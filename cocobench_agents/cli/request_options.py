@@ -13,6 +13,7 @@ from typing import Any
 
 import click
 
+from benchmark_adapter.vocabulary import BACKEND_NAMES, OBSERVATION_MODES
 from cocobench_agents.engine.request import iter_fields
 from cocobench_agents.models.settings import TRANSPORTS
 
@@ -64,7 +65,7 @@ _OPTIONS = [
     request_option("--planner", name="planners", multiple=True,
                    metavar="NAME|FILE.py:NAME|module:NAME"),
     request_option("--obs", name="obs_modes", multiple=True,
-                   type=click.Choice(["image", "blind"])),
+                   type=click.Choice(list(OBSERVATION_MODES))),
     request_option("--conditions", name="conditions", metavar="LIST", type=str),
     request_option("--model", name="models", multiple=True, metavar="M"),
     request_option("--agent-model", name="agent_models", multiple=True, metavar="AGENT=M"),
@@ -85,7 +86,7 @@ _OPTIONS = [
     request_option("--stall-timeout", name="stall_timeout",
                    type=click.FloatRange(min=0, min_open=True), metavar="S"),
     request_option("--preflight/--no-preflight", name="preflight"),
-    request_option("--backend", name="backend", type=click.Choice(["embedded", "ai2thor"])),
+    request_option("--backend", name="backend", type=click.Choice(list(BACKEND_NAMES))),
     request_option("--executor", name="executor", type=click.Choice(["local", "ray"])),
     request_option("--ray-address", name="ray_address", metavar="HOST:PORT"),
     request_option("--thor-gpus-per-worker", name="thor_gpus_per_worker",

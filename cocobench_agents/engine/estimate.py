@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.tasks import TaskConfig
+from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.episode_runner import EpisodeSpec
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.models import build_messages, import_litellm, is_builtin
@@ -234,7 +235,7 @@ class _FirstRounds:
     def requests(self, spec: EpisodeSpec, loop: _Loop) -> list[FirstRequest]:
         seats = _seat_order(spec.config, loop)
         models = [spec.model_for(agent) for _, agent in seats]
-        images = spec.obs_mode == "image" and any(_reads_images(m) for m in models)
+        images = spec.obs_mode == IMAGE and any(_reads_images(m) for m in models)
         # Keyed by the config object: a plan's episodes share one per instance, and all of
         # them are alive while the estimate runs.
         key = (id(spec.config), loop.kind, loop.prompt, loop.broadcast, spec.obs_mode,

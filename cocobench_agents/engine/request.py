@@ -18,16 +18,22 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, field_validator, model_validator
 from pydantic.fields import FieldInfo
 
+from benchmark_adapter.vocabulary import (
+    AI2THOR,
+    DEFAULT_BACKEND,
+    DEFAULT_TASKS,
+    IMAGE,
+    Backend,
+    ObservationMode,
+)
 from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.models.human import HUMAN
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.prompts.suite import DEFAULT_SUITE
 from cocobench_agents.setting_kinds import Kind, kind_of, run_setting, shaping
 
-DEFAULT_SOURCE = "cocobench-240"
 MODEL_EPISODE_TIMEOUT_S = 7200.0  # `limits.episode_timeout` of an episode without a person
 THOR_STALL_S = 1800.0  # `limits.stall_timeout` on AI2-THOR: Unity's start blocks for minutes
-BACKENDS = ("embedded", "ai2thor")
 
 
 class Settings(BaseModel):
@@ -46,7 +52,7 @@ class TaskSelection(Settings):
     """Which instances run: sources, then the reference's eval-set selection."""
 
     sources: list[str] = shaping(
-        default_factory=lambda: [DEFAULT_SOURCE], flag="--task", min_length=1,
+        default_factory=lambda: [DEFAULT_TASKS], flag="--task", min_length=1,
         description="Suite names (cocobench-240, cocobench-full, demo), task-config files or "
                     "folders, the reference's index.json, or subset files such as rep240.json.")
     eval_set: list[str] = shaping(
@@ -138,7 +144,7 @@ class Limits(Settings):
 
     def runaway(self, backend: str) -> RunawayLimits:
         """When the executor stops a runaway episode's worker, on `backend`."""
-        default = THOR_STALL_S if backend == "ai2thor" else RunawayLimits.stall_s
+        default = THOR_STALL_S if backend == AI2THOR else RunawayLimits.stall_s
         return RunawayLimits(self.episode_memory, self.stall_timeout or default)
 
     def episode_timeout_s(self, human: bool) -> float | None:
@@ -176,8 +182,8 @@ class RunRequest(Settings):
                     "oracle, an installed planner (`cocobench planners`) or your own "
                     "(FILE.py:NAME, module:NAME). Several: each is an arm (its condition, "
                     "under each observation mode).")
-    obs_modes: list[Literal["image", "blind"]] = shaping(
-        default_factory=lambda: ["image"], flag="--obs", min_length=1,
+    obs_modes: list[ObservationMode] = shaping(
+        default_factory=lambda: [IMAGE], flag="--obs", min_length=1,
         description="Observation modes the planners run under.")
     conditions: list[str] | None = shaping(
         None, flag="--conditions",
@@ -194,8 +200,8 @@ class RunRequest(Settings):
         False, flag="--baselines",
         description="Also run the reference rows on the same instances: the oracle (the "
                     "upper bound) and the greedy and random built-in models.")
-    backend: Literal["embedded", "ai2thor"] = shaping(
-        "embedded", flag="--backend",
+    backend: Backend = shaping(
+        DEFAULT_BACKEND, flag="--backend",
         description="Simulator: the embedded one, or real AI2-THOR (pip install "
                     "'cocobench-agents[thor]').")
     max_steps: int | None = shaping(None, flag="--max-steps", ge=1,

@@ -87,6 +87,9 @@ PLANNERS: dict[str, PlannerSpec] = {spec.name: spec for spec in (
     PlannerSpec("oracle", "OR", lazy_builder(f"{_GRAPHS}.oracle:build_oracle"), False, False,
                 "the cell's privileged reference plan"),
 )}
+#: The paper's architectures (C0, D0, D1): the planners of the `all`, `image` and `blind`
+#: condition shortcuts.
+PAPER_PLANNERS = ("centralized", "decentralized", "decentralized-broadcast")
 
 
 class PlannerError(ValueError):

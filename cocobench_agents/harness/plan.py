@@ -8,17 +8,17 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 from benchmark_adapter.tasks import TaskConfig
+from benchmark_adapter.vocabulary import DEFAULT_BACKEND, OBSERVATION_MODES
+from cocobench_agents.conditions import condition_name, split_condition
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
-from cocobench_agents.graphs import PLANNERS, find_planner, planner_spec
+from cocobench_agents.graphs import PAPER_PLANNERS, PLANNERS, find_planner, planner_spec
 from cocobench_agents.harness.store import EpisodeKey, model_slug
 from cocobench_agents.prompts import DEFAULT_SUITE, PromptSuite
 
-OBS_MODES = ("image", "blind")
-PAPER_CODES = ("C0", "D0", "D1")  # the paper's architectures, as in run_eval.sh
-SHORTCUTS = {
-    "all": [f"{c}_{o}" for c in PAPER_CODES for o in OBS_MODES],
-    "image": [f"{c}_image" for c in PAPER_CODES],
-    "blind": [f"{c}_blind" for c in PAPER_CODES],
+PAPER_CODES = tuple(PLANNERS[name].code for name in PAPER_PLANNERS)  # as in run_eval.sh
+SHORTCUTS = {  # all; and each observation mode: the paper's architectures under it
+    "all": [condition_name(c, o) for c in PAPER_CODES for o in OBSERVATION_MODES],
+    **{o: [condition_name(c, o) for c in PAPER_CODES] for o in OBSERVATION_MODES},
 }
 
 
@@ -35,7 +35,7 @@ class Condition:
 
     @property
     def name(self) -> str:
-        return f"{planner_spec(self.planner).code}_{self.obs_mode}"
+        return condition_name(planner_spec(self.planner).code, self.obs_mode)
 
 
 def parse_conditions(text: str) -> list[Condition]:
@@ -47,12 +47,13 @@ def parse_conditions(text: str) -> list[Condition]:
         names.extend(SHORTCUTS.get(part, [part]))
     out: list[Condition] = []
     for name in dict.fromkeys(names):
-        head, _, obs = name.rpartition("_")
-        planner = find_planner(head) if head and obs in OBS_MODES else None
+        head, obs = split_condition(name)
+        planner = find_planner(head) if obs else None
         if planner is None:
             codes = "|".join(spec.code for spec in PLANNERS.values())
-            raise PlanError(f"unknown condition {name!r}: use all, image, blind, or "
-                            f"<{codes}>_<image|blind> (planner names, installed planners' "
+            modes = OBSERVATION_MODES
+            raise PlanError(f"unknown condition {name!r}: use all, {', '.join(modes)}, or "
+                            f"<{codes}>_<{'|'.join(modes)}> (planner names, installed planners' "
                             "codes and FILE.py:NAME work too; see `cocobench planners`)")
         out.append(Condition(planner, obs))
     if not out:
@@ -106,7 +107,7 @@ def _check_distinct(conditions: list[Condition]) -> None:
 class RunOptions:
     """Episode options shared by the whole run."""
 
-    backend: str = "embedded"
+    backend: str = DEFAULT_BACKEND
     prompt_suite: str = DEFAULT_SUITE  # the first arm's suite, when there are arms
     #: Prompt-suite arms (label → suite spec), crossed with models and conditions; empty for
     #: a run of one suite (`suite_arms`).

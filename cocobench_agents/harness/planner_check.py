@@ -12,6 +12,7 @@ import asyncio
 from collections.abc import Iterable
 
 from benchmark_adapter.tasks import load_tasks
+from benchmark_adapter.vocabulary import BLIND, DEMO_SUITE
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
 from cocobench_agents.graphs import PlannerContext, PlannerError, compiled_graph
 from cocobench_agents.graphs.node_errors import PlannerNodeError
@@ -54,8 +55,8 @@ async def _check(name: str) -> None:
     if schema is not None and not issubclass(PlannerContext, schema):
         raise PlannerError(f"planner {name}: its graph declares context_schema="
                            f"{schema.__name__}; planner graphs run with PlannerContext")
-    config = next(t for t in load_tasks("demo") if t.task_id == CHECK_TASK)
-    spec = EpisodeSpec(config, planner=name, models={"*": "greedy"}, obs_mode="blind")
+    config = next(t for t in load_tasks(DEMO_SUITE) if t.task_id == CHECK_TASK)
+    spec = EpisodeSpec(config, planner=name, models={"*": "greedy"}, obs_mode=BLIND)
     try:
         _, result = await run_episode(spec, ModelPool())
     except RecursionError:  # LangGraph's GraphRecursionError is one

@@ -31,6 +31,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from benchmark_adapter.vocabulary import AI2THOR
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.harness.batch import ResultCallback, infra_error_record, longest_first
 from cocobench_agents.harness.errors import (
@@ -121,7 +122,7 @@ def fleet_shape(resources: Mapping[str, float], *, backend: str, jobs: int, work
     cpus = int(resources.get("CPU", 0))
     if cpus < 1:
         raise RayUnavailable("the Ray cluster has no CPU to run workers on")
-    if backend != "ai2thor":
+    if backend != AI2THOR:
         count = max(1, min(workers or cpus, cpus, jobs, episodes))
         return FleetShape(tuple(share(jobs, i, count) for i in range(count)))
     fit = cpus
@@ -170,7 +171,7 @@ def execute_on_ray(episodes: Sequence[PlannedEpisode], folder: RunFolder,
                             episodes=len(episodes))
         if on_start is not None:
             on_start(shape)
-        fleet = _Fleet(shape, backend, per_worker=1 if backend == "ai2thor" else jobs,
+        fleet = _Fleet(shape, backend, per_worker=1 if backend == AI2THOR else jobs,
                        most=min(options.workers or jobs, jobs),
                        keys=run_key_variables(settings, _models(episodes)))
         run = _Run(folder, settings, fleet, jobs=jobs, wait_s=options.wait_s,

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from benchmark_adapter.sim.backends import check_backend
+from benchmark_adapter.vocabulary import EMBEDDED
 from cocobench_agents.harness.batch import run_one
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
@@ -63,7 +64,7 @@ class EpisodeWorker:
         self.missing = missing_variables(keys)
         self.last_beat, self.beat = time.monotonic(), None
         self.pool = LimitedPool(ModelPool(settings), limiter, holder)
-        if backend != "embedded":
+        if backend != EMBEDDED:
             _use_assigned_gpu()
             try:
                 check_backend(backend)  # this node's renderer and build, before any episode

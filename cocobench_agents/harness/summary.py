@@ -7,12 +7,12 @@ from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
+from benchmark_adapter.vocabulary import DIMENSIONS
 from cocobench_agents.harness.infra import count_infra_failures
 from cocobench_agents.harness.result_rows import CS_NOTE
 from cocobench_agents.harness.store import result_key
 
-DIMS = ("D1", "D2", "D3", "D4")
-HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DIMS), "legal",
+HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DIMENSIONS), "legal",
            "errors")
 #: The legend under a summary table (the run's closing summary, the viewer's runs page).
 LEGEND = ("SR: task success rate. CS: mean construct score of the scored episodes (n), "
@@ -75,7 +75,7 @@ def _row(rows: list[dict[str, Any]]) -> list[Any]:
     legal = [r["legal_plan"] for r in ran if r.get("legal_plan") is not None]
     return [len(rows), _rate([r["task_success"] for r in rows]),
             _mean_construct(ran), *(_mean_construct([r for r in ran if r.get("dim") == d])
-                                   for d in DIMS),
+                                   for d in DIMENSIONS),
             _rate(legal), count_infra_failures(rows)]
 
 

@@ -14,9 +14,11 @@ import functools
 import io
 from collections.abc import Iterable
 
+from benchmark_adapter.vocabulary import IMAGE
+
 from .builtin import is_builtin
-from .protocol import MenuOption, ModelError, ModelRequest
 from .pool import ModelPool
+from .protocol import MenuOption, ModelError, ModelRequest
 from .secrets import redact
 
 PROBE_PROMPT = "This is a connection check. Reply exactly:\nREASON: ok\nACTION: 1"
@@ -32,7 +34,7 @@ def preflight(pool: ModelPool, models: Iterable[str], obs_modes: Iterable[str]) 
     """Send one call per remote model in `models` and observation mode in `obs_modes` (an
     ``image`` mode sends a tiny image too) with the run's settings; raise `PreflightError`
     naming every model whose call failed. Nothing is written anywhere."""
-    with_images = sorted({mode == "image" for mode in obs_modes})
+    with_images = sorted({mode == IMAGE for mode in obs_modes})
     checks = [(model, images) for model in dict.fromkeys(models) if not is_builtin(model)
               for images in with_images]
     if not checks:

@@ -9,19 +9,27 @@ from __future__ import annotations
 
 import string
 
+from benchmark_adapter.vocabulary import OBSERVATION_MODES
+
 # Fields of the prompts that see the whole team (centralized planner, leader).
 _TEAM = frozenset({"n", "agents", "view", "goal", "progress_section", "hint", "menu",
                    "history_section", "state"})
+
+
+
+def view_template(obs_mode: str, prompt: str) -> str:
+    """The template saying what the model sees under `obs_mode` in a `prompt`
+    (``centralized`` or ``distributed``): each observation mode has its own pair."""
+    return f"view_{obs_mode}_{prompt}"
+
 
 TEMPLATE_FIELDS: dict[str, frozenset[str]] = {
     "centralized": _TEAM,
     "leader": _TEAM | {"reply_format"},
     "distributed": frozenset({"me", "n", "agents", "view", "goal", "progress_section", "hint",
                               "comm", "msg_hint", "menu", "history_section", "inv"}),
-    "view_image_centralized": frozenset({"agents"}),
-    "view_blind_centralized": frozenset({"agents"}),
-    "view_image_distributed": frozenset(),
-    "view_blind_distributed": frozenset(),
+    **{view_template(mode, "centralized"): frozenset({"agents"}) for mode in OBSERVATION_MODES},
+    **{view_template(mode, "distributed"): frozenset() for mode in OBSERVATION_MODES},
     "progress_section": frozenset({"goal_progress"}),
     "history_section_centralized": frozenset({"history"}),
     "history_section_distributed": frozenset({"history"}),

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from cocobench_agents.prompts.fields import view_template
 from cocobench_agents.prompts.suite import PromptSuite
 
 
@@ -19,7 +20,7 @@ class PromptInputs:
     menu_lines: Sequence[str]
     history: Sequence[str]  # "call -> ok" / "call -> FAIL(…)", oldest first
     inventories: Mapping[str, Sequence[str]]
-    obs_mode: str  # "image" | "blind"
+    obs_mode: str  # one of the observation modes (benchmark_adapter.vocabulary)
     messages: Sequence[Mapping[str, str]] = field(default_factory=tuple)  # {agent, text}
 
 
@@ -40,7 +41,7 @@ def _team_fields(suite: PromptSuite, inputs: PromptInputs) -> dict[str, object]:
     state_lines = [f"  {a}: holding={_holding(inputs.inventories.get(a))}" for a in inputs.agents]
     return {
         "n": len(inputs.agents), "agents": agents,
-        "view": suite.render(f"view_{inputs.obs_mode}_centralized", agents=agents),
+        "view": suite.render(view_template(inputs.obs_mode, "centralized"), agents=agents),
         "goal": inputs.goal_text,
         "progress_section": _progress(suite, inputs),
         "hint": _hint(inputs),
@@ -63,7 +64,7 @@ def render_distributed(suite: PromptSuite, inputs: PromptInputs, me: str, broadc
     return suite.render(
         "distributed",
         me=me, n=len(inputs.agents), agents=", ".join(inputs.agents),
-        view=suite.render(f"view_{inputs.obs_mode}_distributed"),
+        view=suite.render(view_template(inputs.obs_mode, "distributed")),
         goal=inputs.goal_text,
         progress_section=_progress(suite, inputs),
         hint=_hint(inputs), comm=comm, msg_hint=msg_hint,

@@ -6,6 +6,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from benchmark_adapter.vocabulary import IMAGE
+from cocobench_agents.conditions import condition_name
 from cocobench_agents.reports import diagnostics, paired, tables
 from cocobench_agents.reports.load import ReportData, ReportError, load_runs
 from cocobench_agents.reports.render import PlotEntry, index_markdown, to_csv, to_markdown
@@ -24,7 +26,7 @@ TABLES: tuple[Callable[[tables.Ctx], Table], ...] = (
     diagnostics.cost,
     diagnostics.construct_correlation,
 )
-PRIMARY_CONDITION = "C0_image"  # the paper's main protocol
+PRIMARY_CONDITION = condition_name(tables.BASELINE_ARCH, IMAGE)  # the paper's main protocol
 
 
 @dataclass

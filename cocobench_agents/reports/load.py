@@ -19,12 +19,12 @@ from typing import Any
 
 import numpy as np
 
+from benchmark_adapter.vocabulary import DIMENSIONS
+from cocobench_agents.conditions import obs_mode_rank, split_condition
 from cocobench_agents.harness.infra import is_infra_failure
 from cocobench_agents.harness.store import RESULTS, RUN_FILE, RunFolder, RunFolderError
 from cocobench_agents.reports.arms import arm_label, difference, recorded_settings, row_settings
 
-DIMENSIONS = ("D1", "D2", "D3", "D4")
-OBS_ORDER = ("image", "blind")
 INFRA_KIND = "infra_error"
 UNRECORDED_KIND = "unrecorded"
 
@@ -175,15 +175,7 @@ class ReportData:
 
     def obs_modes(self) -> list[str]:
         modes = _unique(split_condition(c)[1] for c in self.conditions)
-        return sorted(modes, key=lambda m: (_obs_rank(m), m))
-
-
-def split_condition(condition: str) -> tuple[str, str]:
-    """`C0_image` -> ("C0", "image"); a name without an observation mode -> (name, "")."""
-    head, sep, tail = condition.rpartition("_")
-    if sep and head and tail in OBS_ORDER:
-        return head, tail
-    return condition, ""
+        return sorted(modes, key=lambda m: (obs_mode_rank(m), m))
 
 
 def check_run_folder(path: str | Path) -> Path:
@@ -359,11 +351,6 @@ def _order_conditions(conditions: list[str]) -> list[str]:
 
     def key(condition: str) -> tuple[int, int, str]:
         arch, obs = split_condition(condition)
-        return archs.index(arch), _obs_rank(obs), obs
+        return archs.index(arch), obs_mode_rank(obs), obs
 
     return sorted(conditions, key=key)
-
-
-def _obs_rank(mode: str) -> int:
-    """Image before blind, any other mode after them."""
-    return OBS_ORDER.index(mode) if mode in OBS_ORDER else len(OBS_ORDER)

@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cocobench_agents.reports.load import ReportData, split_condition
+from cocobench_agents.conditions import split_condition
+from cocobench_agents.reports.load import ReportData
 from cocobench_agents.reports.table import Column, Table
 from cocobench_agents.reports.tables import (
     Ctx,

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from benchmark_adapter.vocabulary import BLIND, IMAGE
 from cocobench_agents.harness.infra import retry_command
 from cocobench_agents.harness.result_rows import CS_NOTE
 from cocobench_agents.reports.load import DIMENSIONS, ReportData
@@ -172,7 +173,7 @@ def observation(ctx: Ctx) -> Table:
                 "pairs each blind episode with the image episode of the same task, epoch and "
                 "architecture (n = pairs). SR differences in percentage points.",
         factor="obs", header="Observation", levels=modes,
-        baseline="image" if "image" in modes and "blind" in modes else None, pair_by="arch")
+        baseline=IMAGE if IMAGE in modes and BLIND in modes else None, pair_by="arch")
 
 
 def team_sizes(data: ReportData) -> list[int]:

@@ -18,6 +18,7 @@ from benchmark_adapter.metrics import EpisodeResult, score_trajectory
 from benchmark_adapter.sim.embedded.render import merge_agent_frames
 from benchmark_adapter.skills import SkillResult
 from benchmark_adapter.trajectory import PROMPTS_FIELD, write_json_atomic
+from benchmark_adapter.vocabulary import IMAGE, OBSERVATION_MODES
 from cocobench_agents.models.protocol import MenuOption
 from cocobench_agents.prompts import (
     PromptInputs,
@@ -35,10 +36,11 @@ COUNTED_PARSE_ERRORS = ("parse_error", "invalid_action_id")
 class EpisodeTools:
     """One episode as a planner sees it."""
 
-    def __init__(self, episode: Episode, suite: PromptSuite, *, obs_mode: str = "image",
+    def __init__(self, episode: Episode, suite: PromptSuite, *, obs_mode: str = IMAGE,
                  stable_ids: bool = False) -> None:
-        if obs_mode not in ("image", "blind"):
-            raise ValueError(f"obs_mode must be 'image' or 'blind', not {obs_mode!r}")
+        if obs_mode not in OBSERVATION_MODES:
+            modes = " or ".join(repr(mode) for mode in OBSERVATION_MODES)
+            raise ValueError(f"obs_mode must be {modes}, not {obs_mode!r}")
         self.episode, self.suite, self.obs_mode = episode, suite, obs_mode
         self.stable_ids = stable_ids
         self.config = episode.config
@@ -130,7 +132,7 @@ class EpisodeTools:
         )
 
     def _images(self, agent: str | None) -> tuple[bytes, ...]:
-        if self.obs_mode != "image":
+        if self.obs_mode != IMAGE:
             return ()
         if agent is not None:
             return (self.episode.frame(agent),)

@@ -12,9 +12,15 @@ import jinja2
 
 from benchmark_adapter.metrics.constructs import construct_score
 from benchmark_adapter.metrics.errors import TrajectoryError
+from benchmark_adapter.vocabulary import (
+    LOAD_BALANCING,
+    MUTUAL_EXCLUSION,
+    PRECEDENCE,
+    PRODUCER_CONSUMER,
+)
+from cocobench_agents.conditions import split_condition
 from cocobench_agents.harness.result_rows import CS_NOTE
 from cocobench_agents.harness.summary import HEADERS, LEGEND, summary_table
-from cocobench_agents.reports.load import split_condition
 from cocobench_agents.viewer.rows import (
     COLUMNS,
     FILTERS,
@@ -30,10 +36,11 @@ from cocobench_agents.viewer.timeline import NO_PROMPT, NO_REPLY, build_timeline
 CELL_KEYS = [key for key, _, _ in COLUMNS]
 #: How each dimension's construct score is computed from its evidence (shown beside it).
 FORMULAS = {
-    "D1": "C = M* / makespan (clipped to 1): the busiest agent's steps against the reference",
-    "D2": "C = (1 − v / n) × legality factor, v = violations, n = correct + violations",
-    "D3": "C = (1 − c / a) × efficiency, c = collisions, a = accesses",
-    "D4": "C = 1 − (o + w) / h, h = handoffs, o = overflows, w = starved waits",
+    LOAD_BALANCING:
+        "C = M* / makespan (clipped to 1): the busiest agent's steps against the reference",
+    PRECEDENCE: "C = (1 − v / n) × legality factor, v = violations, n = correct + violations",
+    MUTUAL_EXCLUSION: "C = (1 − c / a) × efficiency, c = collisions, a = accesses",
+    PRODUCER_CONSUMER: "C = 1 − (o + w) / h, h = handoffs, o = overflows, w = starved waits",
 }
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from cocobench_agents.reports.load import split_condition
+from cocobench_agents.conditions import split_condition
 from cocobench_agents.viewer.source import Episode
 
 #: (key, header, filterable): the runs page's columns, in order.

@@ -16,20 +16,27 @@ from typing import Any
 from benchmark_adapter.metrics import ConstructEvidence, TrajectoryError, construct_evidence
 from benchmark_adapter.metrics.general import per_agent_actions
 from benchmark_adapter.metrics.steps import STEP_CATEGORIES, Step
+from benchmark_adapter.vocabulary import (
+    LOAD_BALANCING,
+    MUTUAL_EXCLUSION,
+    PRECEDENCE,
+    PRODUCER_CONSUMER,
+)
 
 #: Evidence counters whose every increase is an event worth a marker, per dimension.
 EVENT_COUNTERS: dict[str, tuple[tuple[str, str], ...]] = {
-    "D2": (("violations", "precedence violation"),),
-    "D3": (("collisions", "collision"),),
-    "D4": (("occupancy_overflows", "overflow"), ("refused_put_overflows", "refused put"),
-           ("starved_waits", "starved wait"), ("affordance_failures", "misplacement"),
-           ("wait_steps", "wait")),
+    PRECEDENCE: (("violations", "precedence violation"),),
+    MUTUAL_EXCLUSION: (("collisions", "collision"),),
+    PRODUCER_CONSUMER: (("occupancy_overflows", "overflow"),
+                        ("refused_put_overflows", "refused put"),
+                        ("starved_waits", "starved wait"), ("affordance_failures", "misplacement"),
+                        ("wait_steps", "wait")),
 }
 TITLES = {
-    "D1": "Load balance: each agent's steps against the reference makespan M*",
-    "D2": "Precedence: containers open/closed and precedence violations",
-    "D3": "Mutual exclusion: who holds the shared resource, and each collision",
-    "D4": "Producer-consumer: buffer occupancy, overflows and starved waits",
+    LOAD_BALANCING: "Load balance: each agent's steps against the reference makespan M*",
+    PRECEDENCE: "Precedence: containers open/closed and precedence violations",
+    MUTUAL_EXCLUSION: "Mutual exclusion: who holds the shared resource, and each collision",
+    PRODUCER_CONSUMER: "Producer-consumer: buffer occupancy, overflows and starved waits",
 }
 
 
@@ -164,7 +171,8 @@ def _draw_d4(signal: Signal, config: Mapping[str, Any], evidence: ConstructEvide
     signal.reference = (float(capacity), f"capacity {capacity:g}")
 
 
-_DRAW = {"D1": _draw_d1, "D2": _draw_d2, "D3": _draw_d3, "D4": _draw_d4}
+_DRAW = {LOAD_BALANCING: _draw_d1, PRECEDENCE: _draw_d2, MUTUAL_EXCLUSION: _draw_d3,
+         PRODUCER_CONSUMER: _draw_d4}
 
 
 def _open_state(step: Step, object_id: str) -> str:

@@ -29,6 +29,7 @@ from benchmark_adapter.generator.templates.base import (
     series,
     team,
 )
+from benchmark_adapter.vocabulary import LOAD_BALANCING
 
 # Open surfaces that make sense as a destination in each room.
 SORT_TARGETS = {
@@ -165,11 +166,12 @@ def tidy_drawers(scene: Scene, agents: int, rng: random.Random) -> Draft:
     )
 
 
+DIM = LOAD_BALANCING  # what every task type here exercises
 D1_TYPES = (
-    TaskType("store_groceries", "Store Groceries", "A", "D1", ("kitchen",),
+    TaskType("store_groceries", "Store Groceries", "A", DIM, ("kitchen",),
              "store_groceries", store_groceries),
-    TaskType("sort_and_store", "Sort & Store", "G", "D1",
+    TaskType("sort_and_store", "Sort & Store", "G", DIM,
              ("living_room", "bedroom", "bathroom"), "G_D1", sort_and_store),
-    TaskType("tidy_drawers", "Tidy Drawers", "H", "D1",
+    TaskType("tidy_drawers", "Tidy Drawers", "H", DIM,
              ("living_room", "bedroom", "bathroom"), "H_D1", tidy_drawers),
 )

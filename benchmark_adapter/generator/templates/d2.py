@@ -25,6 +25,7 @@ from benchmark_adapter.generator.templates.base import (
     series,
     team,
 )
+from benchmark_adapter.vocabulary import PRECEDENCE
 
 KITCHEN_STOCK = ("Apple", "Tomato", "Lettuce", "Potato", "Bread", "Bowl", "Mug", "Cup",
                  "SaltShaker", "PepperShaker")
@@ -107,10 +108,11 @@ def fill_drawers_in_order(scene: Scene, agents: int, rng: random.Random) -> Draf
     )
 
 
+DIM = PRECEDENCE  # what every task type here exercises
 D2_TYPES = (
-    TaskType("stock_cabinet", "Stock Cabinet", "A", "D2", ("kitchen",), "A_D2", stock_cabinet),
-    TaskType("load_in_order", "Load in Order", "C", "D2", ("living_room", "bedroom"),
+    TaskType("stock_cabinet", "Stock Cabinet", "A", DIM, ("kitchen",), "A_D2", stock_cabinet),
+    TaskType("load_in_order", "Load in Order", "C", DIM, ("living_room", "bedroom"),
              "C_D2", load_in_order),
-    TaskType("fill_drawers_in_order", "Fill Drawers in Order", "H", "D2",
+    TaskType("fill_drawers_in_order", "Fill Drawers in Order", "H", DIM,
              ("living_room", "bedroom", "bathroom"), "H_D2", fill_drawers_in_order),
 )

@@ -25,6 +25,7 @@ from benchmark_adapter.generator.templates.base import (
     series,
     team,
 )
+from benchmark_adapter.vocabulary import MUTUAL_EXCLUSION
 
 ASYMMETRIC_SHARE = 1 / 3
 
@@ -110,6 +111,7 @@ def prepare_food(scene: Scene, agents: int, rng: random.Random) -> Draft:
     )
 
 
+DIM = MUTUAL_EXCLUSION  # what every task type here exercises
 D3_TYPES = (
-    TaskType("prepare_food", "Prepare Food", "K", "D3", ("kitchen",), "K_D3", prepare_food),
+    TaskType("prepare_food", "Prepare Food", "K", DIM, ("kitchen",), "K_D3", prepare_food),
 )

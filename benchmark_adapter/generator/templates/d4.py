@@ -32,6 +32,7 @@ from benchmark_adapter.generator.templates.relay_places import (
     cross_zone_places,
     relay_places,
 )
+from benchmark_adapter.vocabulary import PRODUCER_CONSUMER
 
 
 def roles(agents: int) -> tuple[list[str], list[str]]:
@@ -184,11 +185,12 @@ def cross_zone_handoff(scene: Scene, agents: int, rng: random.Random) -> Draft:
     return draft
 
 
+DIM = PRODUCER_CONSUMER  # what every task type here exercises
 D4_TYPES = (
-    TaskType("relay_items", "Relay Items", "C", "D4", ("living_room", "bedroom", "bathroom"),
+    TaskType("relay_items", "Relay Items", "C", DIM, ("living_room", "bedroom", "bathroom"),
              "C_D4", relay_items),
-    TaskType("indirect_relay", "Indirect Relay", "C", "D4", ("kitchen",), "C_D4",
+    TaskType("indirect_relay", "Indirect Relay", "C", DIM, ("kitchen",), "C_D4",
              indirect_relay),
-    TaskType("cross_zone_handoff", "Cross-Zone Handoff", "J", "D4", ("living_room", "bedroom"),
+    TaskType("cross_zone_handoff", "Cross-Zone Handoff", "J", DIM, ("living_room", "bedroom"),
              "J_D4", cross_zone_handoff),
 )

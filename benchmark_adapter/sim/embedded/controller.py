@@ -9,6 +9,7 @@ from benchmark_adapter.sim.embedded.actions import HANDLERS, ActionFailed
 from benchmark_adapter.sim.embedded.metadata import AgentMetadata, MetadataFactory
 from benchmark_adapter.sim.embedded.world import AGENT_Y, World, ground_world
 from benchmark_adapter.tasks.config import TaskConfig
+from benchmark_adapter.vocabulary import EMBEDDED
 
 # Queries leave the world as it is, so cached object records stay valid.
 QUERIES = frozenset(
@@ -29,7 +30,7 @@ class EmbeddedController:
     The same config and the same calls always give identical metadata.
     """
 
-    backend = "embedded"
+    backend = EMBEDDED
 
     def __init__(self, config: TaskConfig) -> None:
         self.config = config

@@ -11,6 +11,7 @@ from benchmark_adapter.sim.thor.launch import ControllerFactory, open_controller
 from benchmark_adapter.sim.thor.options import ThorOptions
 from benchmark_adapter.sim.thor.pool import POOL, ControllerPool, Session
 from benchmark_adapter.tasks.config import TaskConfig
+from benchmark_adapter.vocabulary import AI2THOR
 
 # Before these actions the reference points ai2thor's `last_event` at the acting agent's
 # sub-event (its multi-agent workaround, reference §4.1); we do the same.
@@ -27,7 +28,7 @@ class ThorController:
     episode drives one controller. Options default to the `COCOBENCH_THOR_*` variables.
     """
 
-    backend = "ai2thor"
+    backend = AI2THOR
 
     def __init__(
         self,
