@@ -6,10 +6,10 @@ agents' side shares with the benchmark, each spelled here and nowhere else
 built-in suites.
 
 Each word set is a `Literal` type with a constant per word and a tuple of all of them, so the
-values stay the plain strings that run folders, results and prompts hold (an `Enum` member
-would print as ``ObservationMode.IMAGE`` in Python 3.10's ``str()`` and change pydantic's
-schema). Adding a word is a change here plus the code that gives it meaning (a template, a
-metric).
+values stay the plain strings that run folders, results and prompts hold: a ``(str, Enum)``
+member prints as ``ObservationMode.IMAGE``, `StrEnum` needs Python 3.11, and either would
+change the request's JSON schema. Adding a word is a change here plus the code that gives it
+meaning (a template, a metric), which tests/test_vocabulary.py names.
 """
 
 from __future__ import annotations
