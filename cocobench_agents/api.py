@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmark_adapter.vocabulary import IMAGE
-from cocobench_agents.conditions import condition_name
+from cocobench_agents.conditions import SEPARATOR, condition_name
 from cocobench_agents.engine.config import layered_request
 from cocobench_agents.engine.errors import is_user_error
 from cocobench_agents.engine.request import RunRequest, leaf_paths, nest
@@ -88,7 +88,7 @@ def request_of(source: Any = None, *, models: Any, out: Any, conditions: Any = _
         given["sources"] = _listed(source)
     if planners:  # planner arms: each planner under the observation modes of `conditions`
         given["planners"] = _listed(planners)
-        given["obs_modes"] = list(dict.fromkeys(c.rpartition("_")[2] for c in names))
+        given["obs_modes"] = list(dict.fromkeys(c.rpartition(SEPARATOR)[2] for c in names))
     else:
         given["conditions"] = names
     if prompt_suites:
