@@ -40,11 +40,12 @@ from cocobench_agents.harness.human_log import LoggedDesk
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.pending import pending_episodes
 from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.store import RunFolder, RunFolderWriteError
-from cocobench_agents.harness.summary import latest
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.human import SeatDesk
 from cocobench_agents.models.settings import unset_sampling_notice
+from cocobench_agents.runfolder.errors import RunFolderWriteError
+from cocobench_agents.runfolder.folder import RunFolder
+from cocobench_agents.runfolder.summary import latest
 
 _NO_DESK = ("human seats need a player: run it with `cocobench run` (it serves a play page), "
             "or pass desk=… to run()")

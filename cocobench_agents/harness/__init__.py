@@ -11,10 +11,9 @@ from cocobench_agents.lazy import lazy_getattr
 _EXPORTS = {
     "execute": ".batch", "execute_and_close": ".batch", "infra_error_record": ".batch",
     "run_one": ".batch",
-    "Condition": ".plan", "EpisodeKey": ".store", "PlanError": ".plan", "PlannedEpisode": ".plan",
+    "Condition": ".plan", "PlanError": ".plan", "PlannedEpisode": ".plan",
     "RunOptions": ".plan", "parse_conditions": ".plan", "plan_episodes": ".plan",
     "pending_episodes": ".pending",
-    "RunFolder": ".store", "RunFolderError": ".store",
     "WorkerError": ".workers", "available_cores": ".workers", "execute_in_workers": ".workers",
     "RayOptions": ".ray_executor", "execute_on_ray": ".ray_executor",
 }

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from benchmark_adapter.tasks import TaskConfig
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import PLANNERS, find_planner, planner_spec
-from cocobench_agents.harness.store import EpisodeKey, model_slug
 from cocobench_agents.prompts import DEFAULT_SUITE, PromptSuite
+from cocobench_agents.runfolder.episode_key import EpisodeKey, model_slug
 
 OBS_MODES = ("image", "blind")
 PAPER_CODES = ("C0", "D0", "D1")  # the paper's architectures, as in run_eval.sh

@@ -16,14 +16,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from cocobench_agents.reports.load import ReportData, split_condition
-from cocobench_agents.reports.table import Column, Table
-from cocobench_agents.reports.tables import (
+from cocobench_agents.reports.result_tables import (
     Ctx,
     delta_cells,
     paired_indices,
     sr_cs_cells,
     sr_cs_columns,
 )
+from cocobench_agents.reports.table import Column, Table
 
 NAME = "arms"
 

@@ -12,9 +12,9 @@ import jinja2
 
 from benchmark_adapter.metrics.constructs import construct_score
 from benchmark_adapter.metrics.errors import TrajectoryError
-from cocobench_agents.harness.result_rows import CS_NOTE
-from cocobench_agents.harness.summary import HEADERS, LEGEND, summary_table
 from cocobench_agents.reports.load import split_condition
+from cocobench_agents.runfolder.result_line import CS_NOTE
+from cocobench_agents.runfolder.summary import HEADERS, LEGEND, summary_table
 from cocobench_agents.viewer.rows import (
     COLUMNS,
     FILTERS,
