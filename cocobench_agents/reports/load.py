@@ -1,7 +1,7 @@
 """Reading run folders into one table of episodes.
 
 Each run folder's `results.jsonl` is read with `RunFolder.scan_results()`: every line is
-validated (`harness.result_rows.ResultLine`, pydantic); invalid lines are skipped and counted
+validated (`runfolder.result_line.ResultLine`, pydantic); invalid lines are skipped and counted
 in a warning, and a torn last line of a run in progress or a killed run is skipped (a note).
 An episode whose latest line is invalid is left out. An episode is identified by
 (model, condition, task_id, epoch): a later line supersedes an earlier one in the same run

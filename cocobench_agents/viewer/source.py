@@ -2,7 +2,7 @@
 the previous one, so a page reflects a running run without a restart.
 
 An episode is (model, condition, task_id, epoch); a later line supersedes an earlier one
-(a retry). A line that is not a valid result (`result_rows.line_error`) is skipped and
+(a retry). A line that is not a valid result (`result_line.line_error`) is skipped and
 counted, and a torn last line (a run in mid-write) waits for its end.
 """
 
