@@ -114,7 +114,7 @@ def _checked(request: RunRequest, record: dict[str, Any] | None, folder: RunFold
     if record is None:  # a new run: a mistyped model or a missing key is told before any
         _check_model_names(request)  # instance loads (a resume may have nothing to run)
     else:
-        recorded = canonical(request_from_record(record, folder.path / "run.json"))
+        recorded = canonical(request_from_record(record, folder.record_path))
         refused = refused_changes(recorded, request)
         if refused:
             raise RequestError("\n".join(refused))
