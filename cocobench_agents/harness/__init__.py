@@ -1,7 +1,8 @@
-"""Batch runs: suite × conditions × models × epochs into a resumable run folder.
+"""Batch runs: suite × conditions × models × epochs into a resumable run folder (its format:
+`cocobench_agents.runfolder`).
 
-Names load on first use (PEP 562): reading a run folder (reports) must not import the
-planners and LangGraph.
+Names load on first use (PEP 562): a module that needs one name does not import the planners
+and LangGraph.
 """
 
 from __future__ import annotations
