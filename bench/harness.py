@@ -34,7 +34,6 @@ from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
 from cocobench_agents.harness import (
     Condition,
-    RunFolder,
     RunOptions,
     execute_and_close,
     execute_in_workers,
@@ -48,6 +47,7 @@ from cocobench_agents.models import (
     ModelSettings,
     RetryPolicy,
 )
+from cocobench_agents.runfolder import RunFolder
 
 SERVER = textwrap.dedent('''
     import json, re, sys, time

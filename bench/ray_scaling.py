@@ -35,17 +35,12 @@ from pathlib import Path
 from harness import SERVER  # bench/harness.py: the fake OpenAI-compatible server
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import (
-    Condition,
-    RunFolder,
-    RunOptions,
-    execute_and_close,
-    plan_episodes,
-)
+from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
 from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
 from cocobench_agents.harness.ray_local import driver_token
 from cocobench_agents.harness.ray_session import ray_session, reload_ray_config
 from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.runfolder import RunFolder
 
 NODE_JOBS, NODE_EPISODES = 4, 16
 

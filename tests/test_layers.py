@@ -43,10 +43,10 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("__init__", "cli"),  # the Python API's name list, the command: nothing imports them
         ("play",),  # the play page of human seats, served on the viewer's local server
         ("api", "viewer", "episode_graph"),  # the other doors: none opens onto another
+        ("reports",),  # reads run folders, and what their requests' settings are
         ("engine",),  # RunRequest → plan → run; imports no door
         ("harness",),
-        ("reports",),  # reads run folders
-        ("run folders",),
+        ("runfolder",),  # the run folder's format: every reader of a run imports it
         ("episode_runner",),
         ("graphs",),  # planners never import the harness or the runner
         ("tools",),
@@ -54,13 +54,12 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("setting_kinds", "version", "lazy", "conditions"),  # conditions: `C0_image` names
     ),
 }
-#: Units made of several modules of a subpackage.
-GROUPS: dict[str, tuple[str, ...]] = {
-    "run folders": ("harness.store", "harness.run_lock", "harness.result_rows", "harness.infra"),
-}
 #: Units that may import only some of the units below them (besides benchmark_adapter).
 ONLY: dict[str, tuple[str, ...]] = {
-    "cocobench_agents.reports": ("run folders", "conditions"),
+    # the request's settings (engine.request), their kinds and the built-in models, the
+    # condition codes; never the harness or the planners
+    "cocobench_agents.reports": ("engine", "runfolder", "models", "setting_kinds",
+                                 "conditions"),
 }
 #: What a part must never import, and why.
 FORBIDDEN: dict[str, tuple[str, ...]] = {
@@ -252,9 +251,6 @@ def unit(module: str) -> str:
     """The unit of the layer table `module` belongs to (fails for a module in no layer)."""
     package, _, relative = module.partition(".")
     relative = relative or "__init__"
-    for group, members in GROUPS.items():
-        if any(in_part(relative, m) for m in members):
-            return group
     names = [u for row in LAYERS[package] for u in row if in_part(relative, u)]
     assert names, f"{module} is in no layer of {package}: add it to LAYERS"
     return max(names, key=len)
@@ -290,10 +286,8 @@ def test_the_layer_tables_cover_every_module_and_name_no_other() -> None:
     for module in modules():
         unit(module)
     for package, rows in LAYERS.items():
-        for name in (u for r in rows for u in r if u not in GROUPS and u != "__init__"):
+        for name in (u for r in rows for u in r if u != "__init__"):
             assert ours(f"{package}.{name}") == f"{package}.{name}", f"no module {package}.{name}"
-    for members in GROUPS.values():
-        assert all(f"cocobench_agents.{m}" in modules() for m in members), members
 
 
 # -- (d) private names ---------------------------------------------------------------------------

@@ -37,7 +37,7 @@ from .general import (
     legal_plan,
     subgoal_success_rate,
 )
-from .result import EpisodeResult, score_trajectory
+from .result import EpisodeResult, score_trajectory, unrun_result
 from .steps import (
     INTERACTION_SKILLS,
     STEP_CATEGORIES,
@@ -89,4 +89,5 @@ __all__ = [
     "step_taxonomy",
     "subgoal_success_rate",
     "terminal_reason",
+    "unrun_result",
 ]

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict
 
@@ -13,6 +13,9 @@ from .failures import failure_kind, planner_stats, terminal_reason
 from .general import DistributedMetrics, GeneralMetrics, distributed_metrics, general_metrics
 from .steps import step_taxonomy, task_config
 from .usage import ModelUsage, model_usage
+
+if TYPE_CHECKING:
+    from ..tasks import TaskConfig
 
 #: Identifiers the caller supplies (everything else comes from the trajectory).
 RUN_IDENTIFIERS: frozenset[str] = frozenset(
@@ -105,6 +108,16 @@ def _check_identifiers(identifiers: Mapping[str, Any]) -> None:
             f"unknown or trajectory-derived identifiers: {', '.join(unknown)}; "
             f"accepted: {', '.join(sorted(RUN_IDENTIFIERS))}"
         )
+
+
+def unrun_result(config: TaskConfig, **identifiers: Any) -> dict[str, Any]:
+    """The flat result of an episode that could not run (the harness failed, it timed out):
+    a failure, as the reference scores ``runner_failed`` / ``timeout`` (``task_success`` 0,
+    ``legal_plan`` 0), with the task's identifiers and the run's (`RUN_IDENTIFIERS`)."""
+    _check_identifiers(identifiers)
+    return {"task_success": 0, "legal_plan": 0, "cell": config.cell,
+            "family": config.task_family, "dim": config.coordination_dim,
+            "agent_count": config.agent_count, **identifiers}
 
 
 def score_trajectory(traj: Mapping[str, Any], **identifiers: Any) -> EpisodeResult:

@@ -17,7 +17,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemaini
 from rich.progress import Progress as RichProgress
 
 from cocobench_agents.engine import events
-from cocobench_agents.harness.infra import is_infra_failure
+from cocobench_agents.runfolder.infra import is_infra_failure
 
 #: Off a terminal, a status line every this many seconds (and at the end).
 PLAIN_STATUS_EVERY_S = 30.0

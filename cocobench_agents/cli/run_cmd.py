@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from click.core import ParameterSource
@@ -18,11 +18,14 @@ from cocobench_agents.cli.play_page import play_page
 from cocobench_agents.cli.progress import RunView
 from cocobench_agents.cli.request_options import ENV_PREFIX, request_options
 from cocobench_agents.cli.tables import table
-from cocobench_agents.engine.config import layered_request, read_config_file
+from cocobench_agents.engine.config import command_request
 from cocobench_agents.engine.errors import RunInterrupted, RunStopped
 from cocobench_agents.engine.request import RunRequest, nest
-from cocobench_agents.harness.infra import retry_command
 from cocobench_agents.harness.runaway import runaway_causes
+from cocobench_agents.runfolder.infra import retry_command
+
+if TYPE_CHECKING:
+    from cocobench_agents.engine.results import EvalResults
 
 
 @click.command("run", epilog=(
@@ -67,6 +70,7 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
     if dry_run:
         _dry_run(request, as_json, resume)
         return
+    from cocobench_agents.engine.results import collect_results
     from cocobench_agents.engine.run import run
 
     view = RunView()
@@ -77,10 +81,10 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
                           desk=page.desk if page else None)
         except RunStopped as stopped:
             view.close()
-            _summary(stopped.folder, request)
+            _summary(collect_results(stopped.folder), request)
             raise RunEndedEarly(stopped) from None
     view.close()
-    _summary(results.folder, request)
+    _summary(results, request)
     if results.stopped is not None:
         raise SpendLimitReached(results.stopped)
     if results.errors:
@@ -90,15 +94,7 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
 def _request(options: dict[str, Any], config_file: Path | None, resume: bool) -> RunRequest:
     """The request: the flags and variables given, over the config file, over the recorded
     run (with --resume), over the defaults."""
-    given = _given(options)
-    base = None
-    out = given.get("out") or (read_config_file(config_file).get("out") if config_file else None)
-    if resume and out is not None and (Path(out) / "run.json").is_file():
-        from cocobench_agents.engine.records import request_from_record
-        from cocobench_agents.harness.store import RunFolder
-
-        base = request_from_record(RunFolder(out).run_record(), Path(out) / "run.json")
-    return layered_request(nest(given), config_file=config_file, base=base)
+    return command_request(nest(_given(options)), config_file=config_file, resume=resume)
 
 
 def _given(options: dict[str, Any]) -> dict[str, Any]:
@@ -160,20 +156,17 @@ class RunHadErrors(click.ClickException):
             f"failures above{stopped}; retry them with: {retry_command(folder)}")
 
 
-def _summary(folder: Path, request: RunRequest) -> None:
-    from cocobench_agents.harness.store import RunFolder
-    from cocobench_agents.harness.summary import LEGEND, node_lines, summary_table
+def _summary(results: EvalResults, request: RunRequest) -> None:
     from cocobench_agents.models.settings import unset_sampling_notice
+    from cocobench_agents.runfolder.summary import LEGEND, node_lines, summary_table
 
-    run_folder = RunFolder(folder)
-    records = list(run_folder.results())
-    headers, rows = summary_table(records)
+    headers, rows = summary_table(results)
     click.echo(table(headers, rows, caption=LEGEND))
     sampling = unset_sampling_notice(request.model_settings,
                                      [*request.models, *request.agent_models.values()])
     if sampling:
         click.echo(f"note: {sampling}")
-    for line in node_lines(records):  # a Ray run: where its episodes ran
+    for line in node_lines(results):  # a Ray run: where its episodes ran
         click.echo(line)
-    click.echo(f"results: {run_folder.results_path}  (cocobench report "
-               f"{run_folder.path} --out DIR for the paper's tables)")
+    click.echo(f"results: {results.results_file}  (cocobench report "
+               f"{results.folder} --out DIR for the paper's tables)")

@@ -57,6 +57,21 @@ def layered_request(given: Mapping[str, Any] | None = None, *, config_file: Path
     return RunRequest.model_validate(layered.model_dump(mode="python"))
 
 
+def command_request(given: Mapping[str, Any] | None = None, *,
+                    config_file: Path | None = None, resume: bool = False) -> RunRequest:
+    """The request of a command: `given` values (nested as in `RunRequest`) over
+    `config_file` over, with `resume`, the run recorded in the folder they name (``out``),
+    over the defaults."""
+    given = dict(given or {})
+    out = given.get("out") or (read_config_file(config_file).get("out") if config_file else None)
+    base = None
+    if resume and out is not None:
+        from cocobench_agents.engine.records import recorded_request
+
+        base = recorded_request(Path(out))
+    return layered_request(given, config_file=config_file, base=base)
+
+
 def _layers(*layers: dict[str, Any]) -> type[RunRequest]:
     """A settings class of the request whose sources are `layers`, the first winning (deep
     merge of nested groups: pydantic-settings'); nothing comes from the environment here,

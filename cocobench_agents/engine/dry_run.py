@@ -20,7 +20,7 @@ def plan(request: RunRequest, *, resume: bool = False) -> CostPlan:
     episodes = resolved.episodes
     if resume and (request.out / "run.json").is_file():
         from cocobench_agents.harness.pending import pending_episodes
-        from cocobench_agents.harness.store import RunFolder
+        from cocobench_agents.runfolder.folder import RunFolder
 
         episodes = pending_episodes(episodes, RunFolder(request.out))
     return estimate(episodes, request.model_settings,

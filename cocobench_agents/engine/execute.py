@@ -14,9 +14,9 @@ from cocobench_agents.harness.batch import ResultCallback
 from cocobench_agents.harness.batch import execute as execute_batch
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.store import RunFolder
 from cocobench_agents.harness.workers import available_cores, execute_in_workers
 from cocobench_agents.models import ModelPool
+from cocobench_agents.runfolder.folder import RunFolder
 
 
 def check_executor(execution: ExecutionSettings) -> None:

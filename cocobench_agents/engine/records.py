@@ -22,16 +22,16 @@ from pydantic import ValidationError
 
 from cocobench_agents.engine.errors import RequestError
 from cocobench_agents.engine.request import RunRequest, iter_fields, nest, value_at
-from cocobench_agents.harness.store import RunFolderError
 from cocobench_agents.models.secrets import REDACTED, redact_named, redact_obj, redact_url
+from cocobench_agents.runfolder.errors import RunFolderError
+from cocobench_agents.runfolder.folder import RunFolder
+from cocobench_agents.runfolder.upgrade import RECORD_VERSION, is_current, version_1_settings
 from cocobench_agents.setting_kinds import flag_of
 from cocobench_agents.version import __version__
 
 if TYPE_CHECKING:
     from cocobench_agents.engine.resolve import ResolvedRun
 
-#: `run.json`'s layout: 2 is the one-request layout.
-RECORD_VERSION = 2
 PACKAGES = ("cocobench-agents", "langgraph", "litellm", "pydantic", "pillow", "ai2thor")
 
 
@@ -107,8 +107,7 @@ def request_from_record(record: Mapping[str, Any], where: Path) -> RunRequest:
     """The request recorded in `run.json` (at `where`, for messages), of any version."""
     if not isinstance(record.get("plan"), Mapping):
         raise RunFolderError(f"{where}: not a run record (no plan)")
-    data = record.get("request") if record.get("record_version") == RECORD_VERSION \
-        else upgrade(record)
+    data = record.get("request") if is_current(record) else upgrade(record)
     try:
         return RunRequest.model_validate(data)
     except ValidationError as exc:
@@ -117,53 +116,30 @@ def request_from_record(record: Mapping[str, Any], where: Path) -> RunRequest:
         raise RequestError(f"{where}: the recorded request is not valid ({problems})") from None
 
 
-#: Options of the earlier command line whose request field has another name.
-_RENAMED = {"planner": "planners", "obs_mode": "obs_modes", "prompt_suite": "prompt_suites",
-            "task_id": "task_ids", "timeout": "timeout_s", "extra_json": "extra_params"}
+def recorded_request(out: Path) -> RunRequest | None:
+    """The request recorded in run folder `out`, of any version (None when it holds no
+    run yet)."""
+    folder = RunFolder(out)
+    if not folder.record_path.is_file():
+        return None
+    return request_from_record(folder.run_record(), folder.record_path)
 
 
 def upgrade(record: Mapping[str, Any]) -> dict[str, Any]:
-    """The request of a `run.json` written before the one-request layout (version 1):
-
-    * with ``cli_options`` (every option of the command, by its option name): each option
-      becomes its field (``--planner`` → ``planners``, ``--timeout`` → ``model_settings.
-      timeout_s``, ``--task``/``--suite`` → ``selection.sources``, …);
-    * older, without: ``request`` (the plan's sources, models, conditions, task ids, epochs,
-      prompt suite, backend, step budget and ids) and ``model_settings``.
+    """The request of a `run.json` written before the one-request layout (version 1), as
+    `RunRequest` data: its settings read by their names of today
+    (`runfolder.upgrade.version_1_settings`: ``--planner`` → ``planners``, ``--timeout`` →
+    ``model_settings.timeout_s``, ``--task``/``--suite`` → ``selection.sources``, …),
+    nested as the request holds them.
 
     Options no field has (``no_preflight``, …) are dropped, and so is an unset option (null)
     whose field has a default of another kind: the field keeps its default.
     """
-    options = record.get("cli_options")
-    if isinstance(options, Mapping):
-        flat = {_RENAMED.get(k, k): v for k, v in options.items()}
-        flat["sources"] = _listed(flat.pop("tasks", None)) or _listed(flat.pop("suite", None))
-    else:
-        old = _mapping(record.get("request"))
-        flat = {**_mapping(record.get("model_settings")),
-                "sources": _listed(old.get("tasks")) or _listed(old.get("suite")),
-                "models": old.get("models"), "agent_models": old.get("agent_models"),
-                "conditions": old.get("conditions"), "epochs": old.get("epochs"),
-                "task_ids": old.get("task_id"), "prompt_suites": old.get("prompt_suite"),
-                "backend": old.get("backend"), "max_steps": old.get("max_steps"),
-                "stable_ids": old.get("stable_ids")}
-    flat["out"] = flat.get("out") or "."
-    if not flat["sources"]:
-        flat.pop("sources")
+    flat = version_1_settings(record)
     defaults = {path[-1]: info.get_default(call_default_factory=True)
                 for path, info in iter_fields()}
     return nest({name: value for name, value in flat.items() if name in defaults
                  and (value is not None or defaults[name] is None)})
-
-
-def _mapping(value: Any) -> Mapping[str, Any]:
-    return value if isinstance(value, Mapping) else {}
-
-
-def _listed(value: Any) -> list[str]:
-    if value in (None, "", [], ()):
-        return []
-    return [value] if isinstance(value, str) else [str(v) for v in value]
 
 
 def command_line(request: RunRequest) -> str:

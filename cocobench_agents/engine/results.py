@@ -19,12 +19,19 @@ class EvalResults(list):
         super().__init__(records)
         self.folder, self.errors, self.stopped = folder, errors, stopped
 
+    @property
+    def results_file(self) -> Path:
+        """The run's ``results.jsonl``, every line of which these results were read from."""
+        from cocobench_agents.runfolder.folder import RESULTS
+
+        return self.folder / RESULTS
+
 
 def collect_results(out: Path, stopped: str | None = None) -> EvalResults:
     """The latest result line of every episode recorded in run folder `out`."""
-    from cocobench_agents.harness.infra import count_infra_failures
-    from cocobench_agents.harness.store import RunFolder
-    from cocobench_agents.harness.summary import latest
+    from cocobench_agents.runfolder.folder import RunFolder
+    from cocobench_agents.runfolder.infra import count_infra_failures
+    from cocobench_agents.runfolder.summary import latest
 
     records = latest(RunFolder(out).results())
     return EvalResults(records, Path(out), count_infra_failures(records), stopped)

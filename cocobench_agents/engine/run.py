@@ -40,11 +40,12 @@ from cocobench_agents.harness.human_log import LoggedDesk
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.pending import pending_episodes
 from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.store import RunFolder, RunFolderWriteError
-from cocobench_agents.harness.summary import latest
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.human import SeatDesk
 from cocobench_agents.models.settings import unset_sampling_notice
+from cocobench_agents.runfolder.errors import RunFolderWriteError
+from cocobench_agents.runfolder.folder import RunFolder
+from cocobench_agents.runfolder.summary import latest
 
 _NO_DESK = ("human seats need a player: run it with `cocobench run` (it serves a play page), "
             "or pass desk=… to run()")
@@ -113,7 +114,7 @@ def _checked(request: RunRequest, record: dict[str, Any] | None, folder: RunFold
     if record is None:  # a new run: a mistyped model or a missing key is told before any
         _check_model_names(request)  # instance loads (a resume may have nothing to run)
     else:
-        recorded = canonical(request_from_record(record, folder.path / "run.json"))
+        recorded = canonical(request_from_record(record, folder.record_path))
         refused = refused_changes(recorded, request)
         if refused:
             raise RequestError("\n".join(refused))

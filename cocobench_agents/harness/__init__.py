@@ -1,7 +1,8 @@
-"""Batch runs: suite × conditions × models × epochs into a resumable run folder.
+"""Batch runs: suite × conditions × models × epochs into a resumable run folder (its format:
+`cocobench_agents.runfolder`).
 
-Names load on first use (PEP 562): reading a run folder (reports) must not import the
-planners and LangGraph.
+Names load on first use (PEP 562): a module that needs one name does not import the planners
+and LangGraph.
 """
 
 from __future__ import annotations
@@ -11,10 +12,9 @@ from cocobench_agents.lazy import lazy_getattr
 _EXPORTS = {
     "execute": ".batch", "execute_and_close": ".batch", "infra_error_record": ".batch",
     "run_one": ".batch",
-    "Condition": ".plan", "EpisodeKey": ".store", "PlanError": ".plan", "PlannedEpisode": ".plan",
+    "Condition": ".plan", "PlanError": ".plan", "PlannedEpisode": ".plan",
     "RunOptions": ".plan", "parse_conditions": ".plan", "plan_episodes": ".plan",
     "pending_episodes": ".pending",
-    "RunFolder": ".store", "RunFolderError": ".store",
     "WorkerError": ".workers", "available_cores": ".workers", "execute_in_workers": ".workers",
     "RayOptions": ".ray_executor", "execute_on_ray": ".ray_executor",
 }

@@ -14,14 +14,16 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
+from benchmark_adapter.metrics import unrun_result
 from cocobench_agents.episode_runner import ClientFactory, run_episode
 from cocobench_agents.graphs.node_errors import PlannerNodeError
 from cocobench_agents.harness.errors import FatalModelError, fatal_model_error
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.store import RunFolder
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.secrets import redact
+from cocobench_agents.runfolder.folder import RunFolder
+from cocobench_agents.runfolder.result_line import infra_error_line
 
 ResultCallback = Callable[[dict[str, Any]], None]
 # The episode's key and its seats' `models`, as in result lines.
@@ -140,12 +142,10 @@ async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactor
 def infra_error_record(planned: PlannedEpisode, error: str, elapsed: float) -> dict[str, Any]:
     """The result line of an episode that could not run (scored as a failure, as the
     reference does for runner_failed / timeout)."""
-    config, spec = planned.spec.config, planned.spec
-    return {**planned.key.as_dict(), "infra_error": error, "task_success": 0, "legal_plan": 0,
-            "cell": config.cell, "family": config.task_family, "dim": config.coordination_dim,
-            "agent_count": config.agent_count, "planner": spec.planner,
-            "obs_mode": spec.obs_mode, "backend": spec.backend,
-            "prompt_suite": spec.prompt_suite, "elapsed_s": round(elapsed, 3)}
+    spec = planned.spec
+    return infra_error_line(planned.key, error, unrun_result(
+        spec.config, planner=spec.planner, obs_mode=spec.obs_mode, backend=spec.backend,
+        prompt_suite=spec.prompt_suite, elapsed_s=round(elapsed, 3)))
 
 
 def _secrets(pool: ClientFactory) -> list[str]:

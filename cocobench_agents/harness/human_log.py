@@ -16,8 +16,8 @@ import datetime as dt
 import time
 from typing import Any
 
-from cocobench_agents.harness.store import RunFolder
 from cocobench_agents.models.human import Answer, Decision, SeatDesk
+from cocobench_agents.runfolder.folder import RunFolder
 from cocobench_agents.tools import prompt_hash
 
 HUMAN_ANSWERS = "human_answers.jsonl"

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from cocobench_agents.harness.infra import is_infra_failure
 from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.store import RunFolder
+from cocobench_agents.runfolder.folder import RunFolder
+from cocobench_agents.runfolder.infra import is_infra_failure
 
 
 def pending_episodes(episodes: Sequence[PlannedEpisode], folder: RunFolder, *,

@@ -12,8 +12,8 @@ from benchmark_adapter.vocabulary import DEFAULT_BACKEND, OBSERVATION_MODES
 from cocobench_agents.conditions import condition_name, split_condition
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import PAPER_PLANNERS, PLANNERS, find_planner, planner_spec
-from cocobench_agents.harness.store import EpisodeKey, model_slug
 from cocobench_agents.prompts import DEFAULT_SUITE, PromptSuite
+from cocobench_agents.runfolder.episode_key import EpisodeKey, model_slug
 
 PAPER_CODES = tuple(PLANNERS[name].code for name in PAPER_PLANNERS)  # as in run_eval.sh
 SHORTCUTS = {  # all; and each observation mode: the paper's architectures under it

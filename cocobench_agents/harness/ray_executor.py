@@ -53,9 +53,10 @@ from cocobench_agents.harness.ray_worker import (
     unity_died,
 )
 from cocobench_agents.harness.runaway import DEFAULT_LIMITS, RunawayLimits
-from cocobench_agents.harness.store import EpisodeKey, RunFolder
 from cocobench_agents.harness.workers import available_cores, share
 from cocobench_agents.models import ModelSettings, redact
+from cocobench_agents.runfolder.episode_key import EpisodeKey
+from cocobench_agents.runfolder.folder import RunFolder
 
 WAIT_S = 0.5  # the driver wakes this often: Ctrl-C, room for a worker, the wait_s clock
 GROW_EVERY_S = 1.0  # how often the driver asks Ray whether another worker would fit

@@ -24,9 +24,9 @@ from cocobench_agents.harness.batch import run_one
 from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
 from cocobench_agents.harness.runaway import rss_bytes
-from cocobench_agents.harness.store import EpisodeKey
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.models.pool import needed_key_variables
+from cocobench_agents.runfolder.episode_key import EpisodeKey
 
 THOR_GPU_VARIABLE = "COCOBENCH_THOR_GPU_DEVICE"
 WATCH_GROUP = "watch"  # the concurrency group (own thread, own loop) of `health`

@@ -51,8 +51,9 @@ from cocobench_agents.harness.runaway import (
     machine_memory_low,
     rss_bytes,
 )
-from cocobench_agents.harness.store import RunFolder, RunFolderError, RunFolderWriteError
 from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.runfolder.errors import RunFolderError, RunFolderWriteError
+from cocobench_agents.runfolder.folder import RunFolder
 
 POLL_S = 0.2  # how often the supervisor looks at its workers when no message arrives
 BEAT_S = 0.1  # how often a worker's event loop says it is alive

@@ -13,23 +13,40 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from cocobench_agents.engine.request import iter_fields
+from cocobench_agents.models.builtin import is_builtin
+from cocobench_agents.runfolder.upgrade import is_current
+from cocobench_agents.setting_kinds import kind_of
+
+#: The request's settings that say what runs (the instances, a row's model and condition, the
+#: arms, the epochs, the baselines), not how: runs that differ in them still share rows.
+WHAT_RUNS = ("selection", "models", "planners", "obs_modes", "conditions", "prompt_suites",
+             "epochs", "baselines")
+#: The oracle baseline's rows: a planner, which calls no model.
+ORACLE_ROWS = "oracle"
+
+
+def _shaping(group: tuple[str, ...]) -> tuple[str, ...]:
+    """The shaping settings (`setting_kinds`) directly in the request's `group` (() for its
+    top level), by name."""
+    return tuple(path[-1] for path, info in iter_fields() if path[:-1] == group
+                 and kind_of(info) == "shaping" and path[-1] not in WHAT_RUNS)
+
+
 #: `run.json` options that change the episodes of every model (`agent_models`: a team's
 #: other seats; a human–AI team and a model team are not one row).
-RUN_OPTIONS = ("backend", "max_steps", "stable_ids", "agent_models")
+RUN_OPTIONS = _shaping(())
 #: `run.json` model settings that change what a remote model is sent (or what is kept of
 #: its replies); built-in models ignore them.
-MODEL_SETTINGS = ("api_base", "transport", "temperature", "max_tokens", "grammar", "seed",
-                  "extra_params", "max_reply_chars")
-#: Models no remote setting shapes: `models.BUILTIN_MODELS` and the oracle, named here because
-#: reports read run folders only (tests/test_layers.py), not the model stack.
-_BUILTINS = ("greedy", "random", "scripted", "replay", "human", "oracle")
+MODEL_SETTINGS = _shaping(("model_settings",))
 
 
 def recorded_settings(record: Mapping[str, Any]) -> tuple[Mapping[str, Any],
                                                          Mapping[str, Any]]:
     """A `run.json`'s run options (backend, step budget, …) and model settings: both in its
-    ``request`` (the one-request layout, `record_version` 2), or apart (earlier runs)."""
-    if record.get("record_version") == 2:
+    ``request`` (the one-request layout, `upgrade.RECORD_VERSION`), or apart (earlier
+    runs)."""
+    if is_current(record):
         request = _mapping(record.get("request"))
         return request, _mapping(request.get("model_settings"))
     return _mapping(record.get("options")), _mapping(record.get("model_settings"))
@@ -44,7 +61,7 @@ def row_settings(record: Mapping[str, Any], model: str, arm: str = "") -> dict[s
     settings["prompt_suite"] = suite.get("spec")
     if suite.get("content_hash"):  # older runs did not record it
         settings["prompt_suite content"] = suite["content_hash"]
-    if model.partition(":")[0] not in _BUILTINS:
+    if not is_builtin(model) and model.partition(":")[0] != ORACLE_ROWS:
         settings.update({name: model_settings.get(name) for name in MODEL_SETTINGS})
     return settings
 

@@ -8,18 +8,18 @@ from pathlib import Path
 
 from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.conditions import condition_name
-from cocobench_agents.reports import diagnostics, paired, tables
+from cocobench_agents.reports import diagnostics, paired, result_tables
 from cocobench_agents.reports.load import ReportData, ReportError, load_runs
 from cocobench_agents.reports.render import PlotEntry, index_markdown, to_csv, to_markdown
 from cocobench_agents.reports.stats import Bootstrap
 from cocobench_agents.reports.table import Table
 
 #: Every table of the report, in the order of the index.
-TABLES: tuple[Callable[[tables.Ctx], Table], ...] = (
-    tables.main_results,
-    tables.architecture,
-    tables.observation,
-    tables.team_size,
+TABLES: tuple[Callable[[result_tables.Ctx], Table], ...] = (
+    result_tables.main_results,
+    result_tables.architecture,
+    result_tables.observation,
+    result_tables.team_size,
     diagnostics.failure_diagnostics,
     diagnostics.terminal_states,
     diagnostics.legality,
@@ -49,7 +49,7 @@ class ReportSummary:
 def compute_tables(data: ReportData, boot: Bootstrap | None = None) -> list[Table]:
     """Every report table for already loaded runs (the arms table only when they have
     arms: see `paired`)."""
-    ctx = tables.Ctx(data, boot or Bootstrap())
+    ctx = result_tables.Ctx(data, boot or Bootstrap())
     made = [make(ctx) for make in TABLES]
     if paired.arm_groups(data):
         made.insert(1, paired.arms_table(ctx))  # an ablation's result: next to the main one

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from benchmark_adapter.metrics import FAILURE_KINDS
 from cocobench_agents.reports.load import DIMENSIONS, INFRA_KIND, UNRECORDED_KIND
+from cocobench_agents.reports.result_tables import ID_COLUMNS, Ctx
 from cocobench_agents.reports.stats import (
     correlation_matrix,
     mean_ci,
@@ -12,7 +13,6 @@ from cocobench_agents.reports.stats import (
     total,
 )
 from cocobench_agents.reports.table import Column, Table
-from cocobench_agents.reports.tables import ID_COLUMNS, Ctx
 
 FLAGS = (("dep", "Dep"), ("occ", "Occ"), ("aff", "Aff"), ("ill", "Ill"))
 POOLED = "(all)"

@@ -1,7 +1,7 @@
 """Reading run folders into one table of episodes.
 
 Each run folder's `results.jsonl` is read with `RunFolder.scan_results()`: every line is
-validated (`harness.result_rows.ResultRow`, pydantic); invalid lines are skipped and counted
+validated (`runfolder.result_line.ResultLine`, pydantic); invalid lines are skipped and counted
 in a warning, and a torn last line of a run in progress or a killed run is skipped (a note).
 An episode whose latest line is invalid is left out. An episode is identified by
 (model, condition, task_id, epoch): a later line supersedes an earlier one in the same run
@@ -21,9 +21,10 @@ import numpy as np
 
 from benchmark_adapter.vocabulary import DIMENSIONS
 from cocobench_agents.conditions import obs_mode_rank, split_condition
-from cocobench_agents.harness.infra import is_infra_failure
-from cocobench_agents.harness.store import RESULTS, RUN_FILE, RunFolder, RunFolderError
 from cocobench_agents.reports.arms import arm_label, difference, recorded_settings, row_settings
+from cocobench_agents.runfolder.errors import RunFolderError
+from cocobench_agents.runfolder.folder import RESULTS, RUN_FILE, RunFolder
+from cocobench_agents.runfolder.infra import is_infra_failure
 
 INFRA_KIND = "infra_error"
 UNRECORDED_KIND = "unrecorded"

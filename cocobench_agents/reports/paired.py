@@ -17,14 +17,14 @@ import numpy as np
 
 from cocobench_agents.conditions import split_condition
 from cocobench_agents.reports.load import ReportData
-from cocobench_agents.reports.table import Column, Table
-from cocobench_agents.reports.tables import (
+from cocobench_agents.reports.result_tables import (
     Ctx,
     delta_cells,
     paired_indices,
     sr_cs_cells,
     sr_cs_columns,
 )
+from cocobench_agents.reports.table import Column, Table
 
 NAME = "arms"
 

@@ -16,12 +16,12 @@ from typing import Any
 from cocobench_agents.reports import paired
 from cocobench_agents.reports.load import DIMENSIONS
 from cocobench_agents.reports.render import PlotEntry
+from cocobench_agents.reports.result_tables import GROUPS, group_prefix
 from cocobench_agents.reports.stats import Estimate
 from cocobench_agents.reports.table import Table
-from cocobench_agents.reports.tables import GROUPS, group_prefix
 
 DPI = 120
-GROUP_LABELS = ("Overall", *DIMENSIONS)  # the labels of tables.GROUPS
+GROUP_LABELS = ("Overall", *DIMENSIONS)  # the labels of result_tables.GROUPS
 INSTALL_HINT = ("matplotlib is not installed, so no plots were written: "
                 "pip install matplotlib")
 METADATA = {"Software": None}

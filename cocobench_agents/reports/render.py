@@ -16,9 +16,9 @@ from typing import Any
 
 from cocobench_agents.reports.arms import recorded_settings
 from cocobench_agents.reports.load import ReportData, RunInfo
+from cocobench_agents.reports.result_tables import infra_warnings
 from cocobench_agents.reports.stats import NA, Bootstrap, Estimate
 from cocobench_agents.reports.table import KINDS, Column, Table
-from cocobench_agents.reports.tables import infra_warnings
 
 NA_TEXT = "NA"
 

@@ -19,8 +19,8 @@ from benchmark_adapter.vocabulary import (
     PRODUCER_CONSUMER,
 )
 from cocobench_agents.conditions import split_condition
-from cocobench_agents.harness.result_rows import CS_NOTE
-from cocobench_agents.harness.summary import HEADERS, LEGEND, summary_table
+from cocobench_agents.runfolder.result_line import CS_NOTE
+from cocobench_agents.runfolder.summary import HEADERS, LEGEND, summary_table
 from cocobench_agents.viewer.rows import (
     COLUMNS,
     FILTERS,

@@ -2,7 +2,7 @@
 the previous one, so a page reflects a running run without a restart.
 
 An episode is (model, condition, task_id, epoch); a later line supersedes an earlier one
-(a retry). A line that is not a valid result (`result_rows.row_error`) is skipped and
+(a retry). A line that is not a valid result (`result_line.line_error`) is skipped and
 counted, and a torn last line (a run in mid-write) waits for its end.
 """
 
@@ -14,16 +14,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.harness.result_rows import row_error
-from cocobench_agents.harness.store import (
-    PROMPTS_FILE,
-    RESULTS,
-    RUN_FILE,
-    EpisodeKey,
-    RunFolder,
-    RunFolderError,
-    result_key,
-)
+from cocobench_agents.runfolder.episode_key import EpisodeKey, result_key
+from cocobench_agents.runfolder.errors import RunFolderError
+from cocobench_agents.runfolder.folder import PROMPTS_FILE, RESULTS, RUN_FILE, RunFolder
+from cocobench_agents.runfolder.result_line import line_error
 from cocobench_agents.viewer.errors import ViewerError
 
 SHOWN_PROBLEMS = 5  # junk lines named one by one on the page; the rest are counted
@@ -89,7 +83,7 @@ class RunSource:
             return seq
         try:
             data: Any = json.loads(raw)
-            error = row_error(data)
+            error = line_error(data)
         except (ValueError, RecursionError) as exc:
             error = f"not JSON ({type(exc).__name__})"
         if error is not None:

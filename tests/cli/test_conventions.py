@@ -16,7 +16,7 @@ import click
 import pytest
 
 from cocobench_agents.cli import COMMANDS, cli, load_env_file, main
-from cocobench_agents.harness.result_rows import CS_NOTE
+from cocobench_agents.runfolder.result_line import CS_NOTE
 from tests.models.fake_openai import FakeOpenAI, ok
 
 HEAVY = ("langgraph", "litellm")

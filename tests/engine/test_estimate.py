@@ -19,7 +19,6 @@ from benchmark_adapter.tasks import TaskConfig, load_tasks
 from cocobench_agents.engine.estimate import CostPlan, estimate, first_round_requests
 from cocobench_agents.harness import (
     Condition,
-    RunFolder,
     RunOptions,
     execute_and_close,
     parse_conditions,
@@ -34,6 +33,7 @@ from cocobench_agents.models import (
     import_litellm,
 )
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
+from cocobench_agents.runfolder import RunFolder
 from cocobench_agents.tools import EpisodeTools
 from tests.models.fake_openai import FakeOpenAI, ok
 

@@ -10,15 +10,10 @@ import pytest
 
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
-from cocobench_agents.harness import (
-    Condition,
-    RunFolder,
-    RunOptions,
-    execute_and_close,
-    plan_episodes,
-)
+from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.prompts import parse_message, parse_reply
+from cocobench_agents.runfolder import RunFolder
 from tests.models.fake_openai import FakeOpenAI, ok
 
 MENU = [0, 1, 2, 3, 7, 12]

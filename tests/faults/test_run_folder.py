@@ -9,15 +9,11 @@ from pathlib import Path
 import pytest
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import (
-    Condition,
-    RunFolder,
-    RunOptions,
-    execute_and_close,
-    plan_episodes,
-)
-from cocobench_agents.harness.store import EpisodeKey, RunFolderError
+from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
 from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.runfolder import RunFolder
+from cocobench_agents.runfolder.episode_key import EpisodeKey
+from cocobench_agents.runfolder.errors import RunFolderError
 
 
 def files_under(folder: Path) -> set[Path]:

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from cocobench_agents.cli import main
-from cocobench_agents.harness import EpisodeKey, RunFolder
-from cocobench_agents.harness.store import model_slug
+from cocobench_agents.runfolder import EpisodeKey, RunFolder
+from cocobench_agents.runfolder.episode_key import model_slug
 
 BASE, NO_HINT = "cocobench-v1", "cocobench-v1+no-hint"
 ARMS = ["--prompt-suite", BASE, "--prompt-suite", NO_HINT]

@@ -13,7 +13,6 @@ import pytest
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
-    RunFolder,
     RunOptions,
     execute_and_close,
     execute_in_workers,
@@ -26,6 +25,7 @@ from cocobench_agents.harness.errors import (
     fatal_model_error,
 )
 from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.runfolder import RunFolder
 from tests.models.fake_openai import RATE_LIMITED, SERVER_ERROR, FakeOpenAI, error, ok
 
 MODEL = "openai/fake"

@@ -14,8 +14,10 @@ from pathlib import Path
 import pytest
 
 from cocobench_agents.cli import main
-from cocobench_agents.harness import store
-from cocobench_agents.harness.store import RunFolder, RunFolderWriteError
+from cocobench_agents.runfolder import folder as run_folder
+from cocobench_agents.runfolder import json_lines
+from cocobench_agents.runfolder.errors import RunFolderWriteError
+from cocobench_agents.runfolder.folder import RunFolder
 
 REAL_WRITE = os.write
 RUN = ["run", "--suite", "demo", "--model", "greedy", "--conditions", "all"]
@@ -27,7 +29,7 @@ def record(n: int) -> dict:
 
 
 def test_short_writes_are_completed(tmp_path, monkeypatch):
-    monkeypatch.setattr(store.os, "write", lambda fd, data: REAL_WRITE(fd, bytes(data[:7])))
+    monkeypatch.setattr(json_lines.os, "write", lambda fd, data: REAL_WRITE(fd, bytes(data[:7])))
     folder = RunFolder(tmp_path)
     for n in range(3):
         folder.append_result(record(n))
@@ -49,7 +51,7 @@ def test_a_failed_append_is_cut_back_and_stops_the_run(tmp_path, monkeypatch, co
             return REAL_WRITE(fd, bytes(data[: len(data) // 2]))
         raise OSError(code, os.strerror(code))
 
-    monkeypatch.setattr(store.os, "write", half_then_full)
+    monkeypatch.setattr(json_lines.os, "write", half_then_full)
     with pytest.raises(RunFolderWriteError, match=os.strerror(code)):
         folder.append_result(record(1))
     monkeypatch.undo()
@@ -62,7 +64,7 @@ def test_a_failed_append_is_cut_back_and_stops_the_run(tmp_path, monkeypatch, co
 def test_a_trajectory_that_cannot_be_written_stops_the_run(tmp_path, monkeypatch, capfd,
                                                            workers):
     attempts = []
-    real = store.write_json_atomic
+    real = run_folder.write_json_atomic
 
     def disk_full(path, document):
         if not str(path).endswith("trajectory.json"):
@@ -70,7 +72,7 @@ def test_a_trajectory_that_cannot_be_written_stops_the_run(tmp_path, monkeypatch
         attempts.append(path)
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(store, "write_json_atomic", disk_full)
+    monkeypatch.setattr(run_folder, "write_json_atomic", disk_full)
     out = tmp_path / "run"
     code = main([*RUN, "--out", str(out), "--jobs", "2", "--workers", workers])
     err = capfd.readouterr().err

@@ -11,17 +11,17 @@ import shutil
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
-    RunFolder,
     RunOptions,
     execute_and_close,
     pending_episodes,
     plan_episodes,
 )
-from cocobench_agents.harness.result_rows import row_error
-from cocobench_agents.harness.summary import node_lines, summary_table
 from cocobench_agents.models import ModelPool
 from cocobench_agents.reports.build import compute_tables
 from cocobench_agents.reports.load import load_runs
+from cocobench_agents.runfolder import RunFolder
+from cocobench_agents.runfolder.result_line import line_error
+from cocobench_agents.runfolder.summary import node_lines, summary_table
 
 NODE_A, NODE_B = "a" * 56, "b" * 56
 
@@ -51,7 +51,7 @@ def test_node_fields_are_valid_and_survive_resume_and_report(tmp_path):
     (ray.path / "results.jsonl").write_text(
         "".join(json.dumps({**line, "node": NODE_A}) + "\n" for line in lines))
 
-    assert all(row_error(line) is None for line in ray.results())
+    assert all(line_error(line) is None for line in ray.results())
     assert pending_episodes(planned, ray) == []  # a resume runs nothing again
     assert summary_table(ray.results()) == summary_table(local.results())
     assert compute_tables(load_runs([ray.path])) == compute_tables(load_runs([local.path]))

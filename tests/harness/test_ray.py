@@ -20,7 +20,6 @@ from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import load_task, load_tasks
 from cocobench_agents.harness import (
     Condition,
-    RunFolder,
     RunOptions,
     WorkerError,
     execute_and_close,
@@ -31,6 +30,7 @@ from cocobench_agents.harness.ray_limit import ConcurrencyLimiter
 from cocobench_agents.harness.ray_local import children_of
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
 from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.runfolder import RunFolder
 from tests.harness.ray_fake_unity import CONTROL_VARIABLE, fake_thor_backend
 from tests.paths import SHARED_TASKS
 

@@ -28,19 +28,14 @@ import pytest
 from benchmark_adapter.sim import backends
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import load_task, load_tasks
-from cocobench_agents.harness import (
-    Condition,
-    RunFolder,
-    RunOptions,
-    execute_and_close,
-    plan_episodes,
-)
+from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
 from cocobench_agents.harness.errors import FatalModelError, WorkerEnvironmentError, WorkersLost
 from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
 from cocobench_agents.harness.ray_local import driver_token
 from cocobench_agents.harness.ray_session import reload_ray_config
-from cocobench_agents.harness.summary import node_lines
 from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.runfolder import RunFolder
+from cocobench_agents.runfolder.summary import node_lines
 from tests.harness.ray_fake_unity import CONTROL_VARIABLE, fake_thor_backend
 from tests.models.fake_openai import FakeOpenAI, error, ok
 from tests.paths import SHARED_TASKS

@@ -12,8 +12,10 @@ from pathlib import Path
 import pytest
 
 from cocobench_agents.cli import main
-from cocobench_agents.harness.store import EpisodeKey, RunFolder, RunFolderError
 from cocobench_agents.reports import load_runs
+from cocobench_agents.runfolder.episode_key import EpisodeKey
+from cocobench_agents.runfolder.errors import RunFolderError
+from cocobench_agents.runfolder.folder import RunFolder
 from cocobench_agents.tools import prompt_hash
 
 RUN = ["run", "--suite", "demo", "--model", "greedy", "--conditions", "all", "--jobs", "4"]

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from cocobench_agents.harness.run_lock import LOCK_FILE, RunLock, RunLocked
-from cocobench_agents.harness.store import RunFolder
+from cocobench_agents.runfolder.folder import RunFolder
+from cocobench_agents.runfolder.lock import LOCK_FILE, RunLock, RunLocked
 
 RUN = [sys.executable, "-m", "cocobench_agents.cli", "run", "--model", "random:7",
        "--conditions", "all", "--jobs", "1"]

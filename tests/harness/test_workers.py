@@ -15,16 +15,11 @@ from pathlib import Path
 import pytest
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import (
-    Condition,
-    RunFolder,
-    RunOptions,
-    execute_in_workers,
-    plan_episodes,
-)
+from cocobench_agents.harness import Condition, RunOptions, execute_in_workers, plan_episodes
 from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.harness.workers import share
 from cocobench_agents.models import ModelSettings
+from cocobench_agents.runfolder import RunFolder
 from tests.harness.runaway_planners import RUNAWAY_TASK, SLOW_TASK
 
 PLANTED = Path(__file__).with_name("runaway_planners.py")

@@ -17,10 +17,11 @@ import pytest
 import cocobench_agents as cb
 from cocobench_agents.engine.errors import RequestError
 from cocobench_agents.harness.human_log import HUMAN_ANSWERS, LoggedDesk, answers_file
-from cocobench_agents.harness.store import EpisodeKey, RunFolder
 from cocobench_agents.models import ModelConfigError, ModelPool
 from cocobench_agents.models.human import Answer, Decision
 from cocobench_agents.models.preflight import preflight
+from cocobench_agents.runfolder.episode_key import EpisodeKey
+from cocobench_agents.runfolder.folder import RunFolder
 from tests.human.desks import TASK, OracleDesk, oracle_calls
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -38,8 +38,8 @@ from benchmark_adapter.sim.embedded.render import merge_agent_frames
 from benchmark_adapter.tasks import TaskConfig, load_tasks
 from benchmark_adapter.trajectory import PROMPTS_FIELD
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
-from cocobench_agents.harness.store import EpisodeKey
 from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.runfolder.episode_key import EpisodeKey
 from tests.paths import SHARED_TASKS
 
 # -- the stated bounds ------------------------------------------------------------------------

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
+from benchmark_adapter.trajectory import PROMPTS_FIELD
 from cocobench_agents.episode_runner import EpisodeSpec
 from cocobench_agents.graphs.plugins import forget_user_planners
-from cocobench_agents.harness.store import PROMPTS_FIELD
 
 from .conftest import run
 

@@ -13,14 +13,9 @@ from pathlib import Path
 import pytest
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import (
-    Condition,
-    RunFolder,
-    RunOptions,
-    execute_and_close,
-    plan_episodes,
-)
+from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
 from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
+from cocobench_agents.runfolder import RunFolder
 from tests.models.fake_openai import (
     RATE_LIMITED,
     SERVER_ERROR,

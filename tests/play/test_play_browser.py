@@ -14,8 +14,9 @@ from typing import Any
 import pytest
 from playwright.sync_api import expect
 
-from cocobench_agents.harness.store import EpisodeKey, RunFolder
 from cocobench_agents.play.server import TOKEN_HEADER
+from cocobench_agents.runfolder.episode_key import EpisodeKey
+from cocobench_agents.runfolder.folder import RunFolder
 from tests.play.played_run import (
     DEMO,
     PlayedRun,

@@ -12,7 +12,7 @@ import pytest
 from playwright.sync_api import expect
 
 from cocobench_agents.cli import main
-from cocobench_agents.harness.result_rows import CS_NOTE
+from cocobench_agents.runfolder.result_line import CS_NOTE
 from cocobench_agents.viewer.pages import Pages
 from cocobench_agents.viewer.server import ViewerServer
 from cocobench_agents.viewer.source import Catalog

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import cocobench_agents as cb
 from benchmark_adapter.metrics.steps import extract_steps
-from cocobench_agents.harness.result_rows import CS_NOTE
-from cocobench_agents.harness.summary import LEGEND, summary_rows
+from cocobench_agents.runfolder.result_line import CS_NOTE
+from cocobench_agents.runfolder.summary import LEGEND, summary_rows
 from cocobench_agents.viewer.pages import Pages
 from cocobench_agents.viewer.rows import COLUMNS
 from cocobench_agents.viewer.source import Catalog

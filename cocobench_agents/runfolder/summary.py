@@ -8,9 +8,9 @@ from collections.abc import Iterable
 from typing import Any
 
 from benchmark_adapter.vocabulary import DIMENSIONS
-from cocobench_agents.harness.infra import count_infra_failures
-from cocobench_agents.harness.result_rows import CS_NOTE
-from cocobench_agents.harness.store import result_key
+from cocobench_agents.runfolder.episode_key import result_key
+from cocobench_agents.runfolder.infra import count_infra_failures
+from cocobench_agents.runfolder.result_line import CS_NOTE
 
 HEADERS = ("model", "condition", "episodes", "SR", "CS", *(f"CS_{d}" for d in DIMENSIONS), "legal",
            "errors")

@@ -15,7 +15,6 @@ import contextlib
 import gzip
 import json
 import os
-import re
 import tempfile
 import zlib
 from collections.abc import Iterator, Mapping
@@ -24,54 +23,21 @@ from pathlib import Path
 from typing import Any
 
 from benchmark_adapter.trajectory import PROMPTS_FIELD, write_json_atomic
-from cocobench_agents.harness.result_rows import row_error, row_identity
-from cocobench_agents.harness.run_lock import RunLock
-
-
-def model_slug(model: str) -> str:
-    """A folder-safe form of a model string."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", model).strip("_") or "model"
-
-
-@dataclass(frozen=True)
-class EpisodeKey:
-    """Identifies one episode of a run."""
-
-    model: str
-    condition: str
-    task_id: str
-    epoch: int = 0
-    #: The prompt-suite arm of a run that compares several (`plan.suite_arms`); "" otherwise,
-    #: so that a single-suite run's folders and result lines are those of before arms.
-    arm: str = ""
-
-    def folder(self) -> str:
-        """Where its trajectory lives, relative to the run folder."""
-        leaf = self.task_id if self.epoch == 0 else f"{self.task_id}@e{self.epoch}"
-        arm = f"/{model_slug(self.arm)}" if self.arm else ""
-        return f"episodes/{model_slug(self.model)}/{self.condition}{arm}/{leaf}"
-
-    def as_dict(self) -> dict[str, Any]:
-        out = {"model": self.model, "condition": self.condition, "task_id": self.task_id,
-               "epoch": self.epoch}
-        if self.arm:
-            out["arm"] = self.arm
-        return out
-
+from cocobench_agents.runfolder.episode_key import EpisodeKey, result_key
+from cocobench_agents.runfolder.errors import RunFolderError, gist, write_failed
+from cocobench_agents.runfolder.json_lines import (
+    append_json_line,
+    append_json_lines,
+    cut_torn_tail,
+    json_object,
+)
+from cocobench_agents.runfolder.lock import RunLock
+from cocobench_agents.runfolder.result_line import line_error, line_identity
 
 RESULTS = "results.jsonl"
 RUN_FILE = "run.json"
 PROMPTS_FILE = "prompts.json.gz"
 SHOWN_PROBLEMS = 10  # problems of a results file named one by one; the rest are counted
-
-
-class RunFolderError(ValueError):
-    """A run folder that cannot be used as asked (exists without --resume, …)."""
-
-
-class RunFolderWriteError(RuntimeError):
-    """The run folder could not be written (a full disk, an I/O error): the run stops, what
-    it recorded stays valid, and `--resume` completes it."""
 
 
 @dataclass
@@ -104,6 +70,11 @@ class RunFolder:
     @property
     def results_path(self) -> Path:
         return self.path / RESULTS
+
+    @property
+    def record_path(self) -> Path:
+        """`run.json`: the run's record."""
+        return self.path / RUN_FILE
 
     @contextlib.contextmanager
     def lock(self) -> Iterator[RunLock]:
@@ -163,7 +134,7 @@ class RunFolder:
             with open(path, encoding="utf-8") as f:
                 record = json.load(f)
         except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, too deep
-            raise RunFolderError(f"{path}: not a run record ({_gist(exc)})") from None
+            raise RunFolderError(f"{path}: not a run record ({gist(exc)})") from None
         if not isinstance(record, dict):
             raise RunFolderError(f"{path}: not a run record (a JSON object)")
         return record
@@ -180,7 +151,7 @@ class RunFolder:
                 _write_bytes_atomic(target.parent / PROMPTS_FILE, _compressed(prompts))
             write_json_atomic(target, document)
         except OSError as exc:
-            raise _write_failed(target, exc) from None
+            raise write_failed(target, exc) from None
         return relative
 
     def prompts(self, episode: EpisodeKey | Mapping[str, Any]) -> dict[str, str]:
@@ -194,7 +165,7 @@ class RunFolder:
         except FileNotFoundError:
             return {}
         except (OSError, EOFError, ValueError, zlib.error) as exc:  # a damaged file
-            raise RunFolderError(f"{path}: unreadable ({_gist(exc)})") from None
+            raise RunFolderError(f"{path}: unreadable ({gist(exc)})") from None
 
     def prompt(self, episode: EpisodeKey | Mapping[str, Any], prompt_hash: str) -> str | None:
         """The text of the prompt a decision of `episode` (its key or its result line) names
@@ -228,7 +199,7 @@ class RunFolder:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise _write_failed(path, exc) from None
+            raise write_failed(path, exc) from None
         append_json_line(path, record)
 
     def read_lines(self, relative: str) -> list[dict[str, Any]]:
@@ -236,7 +207,7 @@ class RunFolder:
         after cutting off a torn last line (a kill in mid-write) so that the next
         `append_line` starts a line of its own."""
         whole, _ = cut_torn_tail(self.inside(relative))
-        return [line for line in (_json_object(raw) for raw in whole.splitlines())
+        return [line for line in (json_object(raw) for raw in whole.splitlines())
                 if line is not None]
 
     def results(self) -> Iterator[dict[str, Any]]:
@@ -245,7 +216,7 @@ class RunFolder:
         yield from self.scan_results().rows
 
     def scan_results(self, *, check_trajectories: bool = False) -> ResultsScan:
-        """Read `results.jsonl`, validating every line (`result_rows.ResultRow`); with
+        """Read `results.jsonl`, validating every line (`result_line.ResultLine`); with
         `check_trajectories`, also find the episodes whose trajectory file is missing."""
         scan = ResultsScan()
         try:
@@ -266,9 +237,9 @@ class RunFolder:
     def _scan_line(self, scan: ResultsScan, number: int, raw: bytes) -> None:
         try:
             data: Any = json.loads(raw.decode("utf-8"))
-            error = row_error(data)
+            error = line_error(data)
         except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, nested too deep
-            data, error = None, f"not JSON ({_gist(exc)})"
+            data, error = None, f"not JSON ({gist(exc)})"
         if error is None:
             scan.rows.append(data)
             key = result_key(data)
@@ -276,12 +247,12 @@ class RunFolder:
             scan.latest[key] = data
             return
         scan.invalid_lines += 1
-        identity = row_identity(data)
+        identity = line_identity(data)
         outcome = "skipped"
         if identity is not None:
             key = EpisodeKey(*identity)
             scan.latest.pop(key, None)
-            outcome = f"episode {_name(key)} counts as not done"
+            outcome = f"episode {key.name()} counts as not done"
         scan.problems.append(f"{self.results_path} line {number}: {error}; {outcome}")
 
     def _find_missing_trajectories(self, scan: ResultsScan) -> None:
@@ -295,65 +266,8 @@ class RunFolder:
                 present = False
             if not present:
                 scan.missing.append(key)
-                scan.problems.append(f"{self.path / relative}: missing; episode {_name(key)} "
+                scan.problems.append(f"{self.path / relative}: missing; episode {key.name()} "
                                      "counts as not done")
-
-
-
-def cut_torn_tail(path: Path) -> tuple[bytes, bytes]:
-    """Cut an incomplete last line (a kill in mid-write) off the file at `path`; its whole
-    lines and what was cut (both empty when it is absent)."""
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        return b"", b""
-    end = data.rfind(b"\n") + 1
-    if end != len(data):
-        with open(path, "r+b") as f:
-            f.truncate(end)
-    return data[:end], data[end:]
-
-
-def append_json_line(path: Path, record: dict[str, Any]) -> None:
-    """Append `record` to `path` as one JSON line, whole or not at all, and fsync it;
-    `RunFolderWriteError` (the file cut back to its previous end) if it cannot be written."""
-    append_json_lines(path, [record])
-
-
-def append_json_lines(path: Path, records: list[dict[str, Any]]) -> None:
-    """Append `records` to `path`, a JSON line each, all or none, with one fsync;
-    `RunFolderWriteError` (the file cut back to its previous end) if they cannot be written."""
-    line = "".join(json.dumps(record, sort_keys=True, ensure_ascii=False) + "\n"
-                   for record in records).encode("utf-8")
-    try:
-        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise _write_failed(path, exc) from None
-    try:
-        end = os.lseek(fd, 0, os.SEEK_END)
-        try:
-            _write_all(fd, line)
-            os.fsync(fd)
-        except OSError as exc:
-            _truncate(fd, end)  # no partial line for the next one to be glued to
-            raise _write_failed(path, exc) from None
-    finally:
-        os.close(fd)
-
-
-def _json_object(raw: bytes) -> dict[str, Any] | None:
-    """One line as a JSON object, or None when it is not one."""
-    try:
-        value = json.loads(raw.decode("utf-8"))
-    except (ValueError, RecursionError):
-        return None
-    return value if isinstance(value, dict) else None
-
-
-def result_key(record: Mapping[str, Any]) -> EpisodeKey:
-    """The episode a result line belongs to."""
-    return EpisodeKey(record["model"], record["condition"], record["task_id"],
-                      int(record.get("epoch") or 0), record.get("arm") or "")
 
 
 def _episode_of_line(line: Mapping[str, Any]) -> EpisodeKey:
@@ -363,35 +277,6 @@ def _episode_of_line(line: Mapping[str, Any]) -> EpisodeKey:
     except (KeyError, TypeError, ValueError) as exc:
         raise TypeError("expected an EpisodeKey or a result line of results.jsonl (with "
                         f"model, condition, task_id): {type(exc).__name__}: {exc}") from None
-
-
-def _name(key: EpisodeKey) -> str:
-    epoch = f" epoch {key.epoch}" if key.epoch else ""
-    arm = f" arm {key.arm}" if key.arm else ""
-    return f"{key.model} {key.condition}{arm} {key.task_id}{epoch}"
-
-
-def _gist(exc: BaseException) -> str:
-    return str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
-
-
-def _write_failed(path: Path, exc: OSError) -> RunFolderWriteError:
-    return RunFolderWriteError(f"cannot write {path}: {exc.strerror or exc}")
-
-
-def _write_all(fd: int, data: bytes) -> None:
-    """`os.write` until every byte is written (it may write fewer than asked)."""
-    view = memoryview(data)
-    while view:
-        written = os.write(fd, view)
-        if written <= 0:
-            raise OSError(0, "the file system accepted no more bytes")
-        view = view[written:]
-
-
-def _truncate(fd: int, size: int) -> None:
-    with contextlib.suppress(OSError):  # else the partial line stays: readers name it
-        os.ftruncate(fd, size)
 
 
 def _compressed(prompts: dict[str, str]) -> bytes:

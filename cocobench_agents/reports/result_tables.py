@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchmark_adapter.vocabulary import BLIND, IMAGE
-from cocobench_agents.harness.infra import retry_command
-from cocobench_agents.harness.result_rows import CS_NOTE
 from cocobench_agents.reports.load import DIMENSIONS, ReportData
 from cocobench_agents.reports.stats import Bootstrap, Estimate, mean_ci, paired_diff_ci
 from cocobench_agents.reports.table import Column, Table
+from cocobench_agents.runfolder.infra import retry_command
+from cocobench_agents.runfolder.result_line import CS_NOTE
 
 BASELINE_ARCH = "C0"
 TEAM_SIZES = (2, 3, 4)
