@@ -13,7 +13,8 @@ from cocobench_agents.lazy import lazy_getattr
 _EXPORTS = {
     # the registry, and planners from the researcher's code
     "PLANNERS": ".registry", "PlannerSpec": ".registry", "PlannerError": ".registry",
-    "UnknownPlanner": ".registry", "lazy_builder": ".registry",
+    "UnknownPlanner": ".registry", "lazy_builder": ".registry", "Seat": ".registry",
+    "DEFAULT_PLANNER": ".registry", "ORACLE": ".registry", "NO_MODEL": ".registry",
     "compiled_graph": ".lookup", "planner_spec": ".lookup", "find_planner": ".lookup",
     # what a strategy is made of
     "PlannerContext": ".context",

@@ -16,7 +16,9 @@ import pytest
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.oracles import oracle_plan
 from benchmark_adapter.tasks import TaskConfig, load_tasks
-from cocobench_agents.engine.estimate import CostPlan, estimate, first_round_requests
+from cocobench_agents.engine.costs import CostPlan
+from cocobench_agents.engine.estimate import estimate
+from cocobench_agents.engine.first_prompts import first_round_requests
 from cocobench_agents.harness import (
     Condition,
     RunFolder,
