@@ -11,8 +11,10 @@ from pathlib import Path
 import click
 
 from benchmark_adapter.episode import Episode
-from benchmark_adapter.tasks import TaskConfig, load_tasks
+from benchmark_adapter.tasks import TaskConfig
 from cocobench_agents.cli.tables import table
+from cocobench_agents.engine.request import DEFAULT_SOURCE
+from cocobench_agents.engine.resolve import UnknownTask, find_task
 from cocobench_agents.graphs import DEFAULT_PLANNER, PLANNERS, PlannerSpec, planner_spec
 from cocobench_agents.graphs.registry import AGENT_SEAT, LEADER_SEAT, LED_ROUND
 from cocobench_agents.prompts import (
@@ -26,7 +28,6 @@ from cocobench_agents.prompts import (
 )
 from cocobench_agents.tools import EpisodeTools
 
-DEFAULT_TASKS = "cocobench-240"
 #: The built-in planners that call a model, so have a first prompt to show.
 WITH_PROMPTS = [name for name, spec in PLANNERS.items() if spec.uses_models]
 
@@ -75,7 +76,7 @@ def export_command(name: str, directory: Path) -> None:
               help="Prompt suite with optional variants: cocobench-v1+no-hint, ./my-suite.")
 @click.option("--task", required=True, metavar="ID|PATH",
               help="A task config file, or an instance id of --source.")
-@click.option("--source", default=DEFAULT_TASKS, show_default=True, metavar="SUITE|PATH",
+@click.option("--source", default=DEFAULT_SOURCE, show_default=True, metavar="SUITE|PATH",
               help="Where --task ID is looked up: a task suite name, file or folder.")
 @click.option("--planner", default=DEFAULT_PLANNER, show_default=True,
               help=f"One of: {', '.join(WITH_PROMPTS)}; or an installed planner, "
@@ -122,19 +123,10 @@ def _first_seat(spec: PlannerSpec, agent: str | None) -> str:
 
 def _task(task: str, source: str) -> TaskConfig:
     """The config file `task`, or the instance `task` of `source`."""
-    if Path(task).is_file():
-        configs = load_tasks(task)
-        if len(configs) != 1:
-            raise click.BadParameter(f"{task} holds {len(configs)} instances; pass "
-                                     f"--source {task} --task ID", param_hint="--task")
-        return configs[0]
-    configs = load_tasks(source)
-    for config in configs:
-        if config.task_id == task:
-            return config
-    examples = ", ".join(c.task_id for c in configs[:2])
-    raise click.BadParameter(f"no instance {task!r} in {source} (neither a file; ids look "
-                             f"like {examples})", param_hint="--task")
+    try:
+        return find_task(task, source)
+    except UnknownTask as exc:
+        raise click.BadParameter(str(exc), param_hint="--task") from None
 
 
 def _caption(suite: PromptSuite, config: TaskConfig, planner: str, agent: str | None,

@@ -161,6 +161,7 @@ class RunHadErrors(click.ClickException):
 
 
 def _summary(folder: Path, request: RunRequest) -> None:
+    from cocobench_agents.graphs import NO_MODEL
     from cocobench_agents.harness.store import RunFolder
     from cocobench_agents.harness.summary import LEGEND, node_lines, summary_table
     from cocobench_agents.models.settings import unset_sampling_notice
@@ -169,8 +170,8 @@ def _summary(folder: Path, request: RunRequest) -> None:
     records = list(run_folder.results())
     headers, rows = summary_table(records)
     click.echo(table(headers, rows, caption=LEGEND))
-    sampling = unset_sampling_notice(request.model_settings,
-                                     [*request.models, *request.agent_models.values()])
+    called = [m for m in [*request.models, *request.agent_models.values()] if m != NO_MODEL]
+    sampling = unset_sampling_notice(request.model_settings, called)
     if sampling:
         click.echo(f"note: {sampling}")
     for line in node_lines(records):  # a Ray run: where its episodes ran

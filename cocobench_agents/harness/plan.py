@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 from benchmark_adapter.tasks import TaskConfig
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
-from cocobench_agents.graphs import PLANNERS, find_planner, planner_spec
+from cocobench_agents.graphs import NO_MODEL, PLANNERS, find_planner, planner_spec
 from cocobench_agents.harness.store import EpisodeKey, model_slug
 from cocobench_agents.prompts import DEFAULT_SUITE, PromptSuite
 
@@ -174,4 +174,4 @@ def _spec(key: EpisodeKey, config: TaskConfig, model: str, cond: Condition, suit
 
 
 def _model_label(model: str, cond: Condition) -> str:
-    return model if planner_spec(cond.planner).uses_models else "oracle"
+    return model if planner_spec(cond.planner).uses_models else NO_MODEL
