@@ -138,7 +138,7 @@ def test_a_broadcasting_plugin_is_counted_as_d1_for_the_same_prompts():
 
 
 def test_a_spec_without_a_loop_keeps_the_assumed_bound_but_counts_its_board(tmp_path):
-    # claim-board's shape: broadcasts, may ask an agent twice a round (no loop declared)
+    # a strategy written before specs declared their loop: it broadcasts, nothing more
     source = Path(FIRST_COME.rpartition(":")[0]).read_text()
     undeclared = source.replace('    loop="round",', "    loop=None,")
     (tmp_path / "undeclared.py").write_text(undeclared)
