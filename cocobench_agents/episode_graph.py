@@ -21,8 +21,8 @@ planner graphs in `graphs/` sit below it).
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 from langgraph.config import get_stream_writer
@@ -31,20 +31,18 @@ from langgraph.types import interrupt
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 from typing_extensions import NotRequired, TypedDict
 
-from benchmark_adapter.tasks import TaskConfig, load_task, load_tasks
 from benchmark_adapter.vocabulary import (
-    DEFAULT_BACKEND,
     DEFAULT_TASKS,
-    IMAGE,
     Backend,
     ObservationMode,
 )
+from cocobench_agents.engine.resolve import find_task
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec, run_episode
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.harness.human_log import answer_of, answers_again
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.models.human import Answer, Decision, HumanTurn
-from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
+from cocobench_agents.prompts import load_prompt_suite
 from cocobench_agents.tools import prompt_hash
 
 
@@ -81,29 +79,25 @@ class EpisodeState(EpisodeInput, EpisodeOutput, total=False):
     streamed: int  # the steps already streamed (a replay does not stream them again)
 
 
-def resolve_task(task: str, suite: str = DEFAULT_TASKS) -> TaskConfig:
-    """The config of `task`: a config file, or an instance id of `suite`."""
-    if Path(task).is_file():
-        return load_task(task)
-    for config in load_tasks(suite):
-        if config.task_id == task:
-            return config
-    raise ValueError(f"unknown task {task!r}: neither a task-config file nor an instance id "
-                     f"of {suite!r} (see `cocobench list {suite}`)")
-
-
 def episode_spec(state: EpisodeInput) -> EpisodeSpec:
-    """The episode `state` asks for, with the documented defaults."""
-    config = resolve_task(state["task"], state.get("suite") or DEFAULT_TASKS)
-    planner = state.get("planner") or "centralized"
-    models = {DEFAULT_MODEL_KEY: state.get("model") or "greedy"}
-    if planner_spec(planner).decentralized:  # as a run: only their agents have models
+    """The episode `state` asks for: its task found as `cocobench prompts show` finds one
+    (`find_task`), and what it leaves out as a run leaves it (`EpisodeSpec`'s defaults, the
+    request's task source)."""
+    config = find_task(state["task"], state.get("suite") or DEFAULT_TASKS)
+    given = {field: state[key] for key, field in _SPEC_FIELDS.items()  # type: ignore[literal-required]
+             if state.get(key) not in (None, "")}
+    spec = EpisodeSpec(config=config, **given)
+    models = dict(spec.models)
+    if state.get("model"):
+        models[DEFAULT_MODEL_KEY] = state["model"]
+    if planner_spec(spec.planner).decentralized:  # as a run: only their agents have models
         models.update(state.get("agent_models") or {})
-    return EpisodeSpec(config=config, planner=planner, models=models,
-                       obs_mode=state.get("obs_mode") or IMAGE,
-                       prompt_suite=state.get("prompt_suite") or DEFAULT_SUITE,
-                       backend=state.get("backend") or DEFAULT_BACKEND,
-                       max_steps=state.get("budget"))
+    return dataclasses.replace(spec, models=models)
+
+
+#: `EpisodeInput` keys that are `EpisodeSpec` fields, and which.
+_SPEC_FIELDS = {"planner": "planner", "obs_mode": "obs_mode", "prompt_suite": "prompt_suite",
+                "backend": "backend", "budget": "max_steps"}
 
 
 def step_event(item: dict[str, Any]) -> dict[str, Any]:

@@ -15,7 +15,12 @@ from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.tasks.checks import MAX_STEP_BUDGET
 from benchmark_adapter.vocabulary import DEFAULT_BACKEND, EMBEDDED, IMAGE
-from cocobench_agents.graphs import PlannerContext, compiled_graph, planner_spec
+from cocobench_agents.graphs import (
+    DEFAULT_PLANNER,
+    PlannerContext,
+    compiled_graph,
+    planner_spec,
+)
 from cocobench_agents.graphs.node_errors import NodeFailure, PlannerNodeError, node_failure
 from cocobench_agents.models.human import HUMAN, HumanTurn
 from cocobench_agents.models.protocol import ModelClient
@@ -31,7 +36,7 @@ class EpisodeSpec:
     """What to run: one instance under one condition."""
 
     config: TaskConfig
-    planner: str = "centralized"
+    planner: str = DEFAULT_PLANNER
     models: dict[str, str] = field(default_factory=lambda: {DEFAULT_MODEL_KEY: "greedy"})
     obs_mode: str = IMAGE
     prompt_suite: str = DEFAULT_SUITE

@@ -58,9 +58,6 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("benchmark_adapter.generator.thor", "ai2thor"): "imports the ai2thor package",
     ("cocobench_agents.engine.records", "ai2thor"): "records the ai2thor package's version",
     ("cocobench_agents.cli.doctor_cmd", "ai2thor"): "checks the ai2thor package's install",
-    # Until issue 27's part 2 lands: the viewer shows the message board for the condition
-    # code "D1"; the planner's own `broadcast` replaces it (then drop this entry).
-    ("cocobench_agents.viewer.pages", "D1"): "the board decision keyed by the code D1",
 }
 
 

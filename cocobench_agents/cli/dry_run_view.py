@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from cocobench_agents.cli.tables import table
-from cocobench_agents.engine.estimate import CostPlan, CostRange
+from cocobench_agents.engine.costs import CostPlan, CostRange
 
 
 def dry_run_table(plan: CostPlan) -> str:

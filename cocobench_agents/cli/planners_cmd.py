@@ -8,7 +8,7 @@ from typing import Any
 import click
 
 from cocobench_agents.cli.tables import table
-from cocobench_agents.graphs import PlannerError
+from cocobench_agents.graphs import PlannerError, PlannerSpec
 from cocobench_agents.graphs.plugins import (
     LoadedPlanner,
     builtin_planners,
@@ -26,7 +26,7 @@ def planner_record(planner: LoadedPlanner) -> dict[str, Any]:
     if spec is None:
         return {**record, "error": planner.error}
     return {**record, "code": spec.code, "models": _models(spec.uses_models, spec.decentralized),
-            "description": spec.description}
+            "description": spec.description, "shape": _shape(spec)}
 
 
 @click.command("planners")
@@ -95,6 +95,15 @@ def _row(record: dict[str, Any]) -> list[Any]:
     if "error" in record:
         return [record["name"], None, None, where, f"BROKEN: {record['error']}"]
     return [record["name"], record["code"], record["models"], where, record["description"]]
+
+
+def _shape(spec: PlannerSpec) -> dict[str, Any] | None:
+    """How it asks its models, as its spec declares it (`loop` null: not declared, so the dry
+    run assumes its bound); None for a planner that calls no model."""
+    if not spec.uses_models:
+        return None
+    return {"loop": spec.loop, "prompt": spec.prompt_kind, "broadcast": spec.broadcast,
+            "calls_per_seat": spec.calls_per_seat}
 
 
 def _models(uses_models: bool, decentralized: bool) -> str:

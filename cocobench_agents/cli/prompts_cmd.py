@@ -11,10 +11,12 @@ from pathlib import Path
 import click
 
 from benchmark_adapter.episode import Episode
-from benchmark_adapter.tasks import TaskConfig, load_tasks
+from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import DEFAULT_TASKS, IMAGE, OBSERVATION_MODES
 from cocobench_agents.cli.tables import table
-from cocobench_agents.graphs import planner_spec
+from cocobench_agents.engine.resolve import UnknownTask, find_task
+from cocobench_agents.graphs import DEFAULT_PLANNER, PLANNERS, PlannerSpec, planner_spec
+from cocobench_agents.graphs.registry import AGENT_SEAT, LEADER_SEAT, LED_ROUND
 from cocobench_agents.prompts import (
     DEFAULT_SUITE,
     VARIANTS,
@@ -26,10 +28,8 @@ from cocobench_agents.prompts import (
 )
 from cocobench_agents.tools import EpisodeTools
 
-# How each built-in strategy asks for its first decision: the team prompt, one agent's prompt
-# (with or without the message board), or the leader's prompt.
-FIRST_PROMPT = {"centralized": "team", "decentralized": "agent",
-                "decentralized-broadcast": "agent+board", "leader-worker": "leader"}
+#: The built-in planners that call a model, so have a first prompt to show.
+WITH_PROMPTS = [name for name, spec in PLANNERS.items() if spec.uses_models]
 
 
 @click.group("prompts")
@@ -78,8 +78,9 @@ def export_command(name: str, directory: Path) -> None:
               help="A task config file, or an instance id of --source.")
 @click.option("--source", default=DEFAULT_TASKS, show_default=True, metavar="SUITE|PATH",
               help="Where --task ID is looked up: a task suite name, file or folder.")
-@click.option("--planner", default="centralized", show_default=True,
-              help=f"One of: {', '.join(FIRST_PROMPT)}.")
+@click.option("--planner", default=DEFAULT_PLANNER, show_default=True,
+              help=f"One of: {', '.join(WITH_PROMPTS)}; or an installed planner, "
+                   "FILE.py:NAME or module:NAME.")
 @click.option("--agent", default=None,
               help="The agent whose prompt to show (decentralized planners; default: the "
                    "first).")
@@ -89,52 +90,43 @@ def show_command(suite_spec: str, task: str, source: str, planner: str, agent: s
                  obs_mode: str) -> None:
     """Print the prompt a model gets at the first step (stdout), and what it is (stderr)."""
     suite = load_prompt_suite(suite_spec)
-    kind = _first_prompt_kind(planner, agent)
+    spec = planner_spec(planner)
+    seat = _first_seat(spec, agent)
     config = _task(task, source)
-    if kind.startswith("agent"):
+    if seat == AGENT_SEAT:
         agent = agent or config.agent_ids[0]
         if agent not in config.agent_ids:
             raise click.BadParameter(f"{agent!r} is not an agent of {config.task_id} "
                                      f"({', '.join(config.agent_ids)})", param_hint="--agent")
     tools = EpisodeTools(Episode(config), suite, obs_mode=obs_mode)
     tools.start()
-    if kind == "leader":
+    if seat == LEADER_SEAT:
         text, _ = tools.leader_prompt([], with_images=False)
     else:
-        text, _, _ = tools.prompt(agent, [], broadcast=kind == "agent+board",
-                                  with_images=False)
+        text, _, _ = tools.prompt(agent, [], broadcast=spec.broadcast, with_images=False)
     click.echo(_caption(suite, config, planner, agent, obs_mode), err=True)
     click.echo(text)
 
 
-def _first_prompt_kind(planner: str, agent: str | None) -> str:
-    name = planner_spec(planner).name
-    kind = FIRST_PROMPT.get(name)
-    if kind is None:
-        raise click.BadParameter(f"{name!r} has no prompt to show (planners with prompts: "
-                                 f"{', '.join(FIRST_PROMPT)})", param_hint="--planner")
-    if agent is not None and not kind.startswith("agent"):
-        raise click.BadParameter(f"the {name} planner's first prompt is the "
-                                 f"{'leader' if kind == 'leader' else 'team'}'s, not an "
-                                 f"agent's", param_hint="--agent")
-    return kind
+def _first_seat(spec: PlannerSpec, agent: str | None) -> str:
+    """Whose prompt the planner's first decision renders, as its spec declares it: the
+    leader's (a led round), the team's or an agent's (its prompt kind)."""
+    if not spec.uses_models:
+        raise click.BadParameter(f"{spec.name!r} has no prompt to show (planners with "
+                                 f"prompts: {', '.join(WITH_PROMPTS)})", param_hint="--planner")
+    seat = LEADER_SEAT if spec.loop_kind == LED_ROUND else spec.prompt_kind
+    if agent is not None and seat != AGENT_SEAT:
+        raise click.BadParameter(f"the {spec.name} planner's first prompt is the {seat}'s, "
+                                 "not an agent's", param_hint="--agent")
+    return seat
 
 
 def _task(task: str, source: str) -> TaskConfig:
     """The config file `task`, or the instance `task` of `source`."""
-    if Path(task).is_file():
-        configs = load_tasks(task)
-        if len(configs) != 1:
-            raise click.BadParameter(f"{task} holds {len(configs)} instances; pass "
-                                     f"--source {task} --task ID", param_hint="--task")
-        return configs[0]
-    configs = load_tasks(source)
-    for config in configs:
-        if config.task_id == task:
-            return config
-    examples = ", ".join(c.task_id for c in configs[:2])
-    raise click.BadParameter(f"no instance {task!r} in {source} (neither a file; ids look "
-                             f"like {examples})", param_hint="--task")
+    try:
+        return find_task(task, source)
+    except UnknownTask as exc:
+        raise click.BadParameter(str(exc), param_hint="--task") from None
 
 
 def _caption(suite: PromptSuite, config: TaskConfig, planner: str, agent: str | None,

@@ -157,13 +157,14 @@ class RunHadErrors(click.ClickException):
 
 
 def _summary(results: EvalResults, request: RunRequest) -> None:
+    from cocobench_agents.graphs import NO_MODEL
     from cocobench_agents.models.settings import unset_sampling_notice
     from cocobench_agents.runfolder.summary import LEGEND, node_lines, summary_table
 
     headers, rows = summary_table(results)
     click.echo(table(headers, rows, caption=LEGEND))
-    sampling = unset_sampling_notice(request.model_settings,
-                                     [*request.models, *request.agent_models.values()])
+    called = [m for m in [*request.models, *request.agent_models.values()] if m != NO_MODEL]
+    sampling = unset_sampling_notice(request.model_settings, called)
     if sampling:
         click.echo(f"note: {sampling}")
     for line in node_lines(results):  # a Ray run: where its episodes ran

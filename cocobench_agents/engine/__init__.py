@@ -12,7 +12,7 @@ from cocobench_agents.lazy import lazy_getattr
 _EXPORTS = {
     "RunRequest": ".request", "TaskSelection": ".request", "ExecutionSettings": ".request",
     "Limits": ".request",
-    "run": ".run", "run_async": ".run", "plan": ".dry_run", "CostPlan": ".estimate",
+    "run": ".run", "run_async": ".run", "plan": ".dry_run", "CostPlan": ".costs",
     "EvalResults": ".results", "RequestError": ".errors", "RunStopped": ".errors",
     "ConfigError": ".config", "layered_request": ".config",
 }

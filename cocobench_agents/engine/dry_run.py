@@ -7,7 +7,8 @@ conditions or models are the same errors), then estimates each model × conditio
 
 from __future__ import annotations
 
-from cocobench_agents.engine.estimate import CostPlan, estimate
+from cocobench_agents.engine.costs import CostPlan
+from cocobench_agents.engine.estimate import estimate
 from cocobench_agents.engine.request import RunRequest
 from cocobench_agents.engine.resolve import canonical, resolve
 

@@ -59,8 +59,7 @@ def run_record(resolved: ResolvedRun) -> dict[str, Any]:
         # What "auto" resolved to, per remote model: the temperature sent (None: none sent).
         "temperature_sent": {
             model: settings.temperature_for(model)
-            for model in dict.fromkeys([*resolved.models, *request.agent_models.values()])
-            if not is_builtin(model) and model != "oracle"},
+            for model in dict.fromkeys(resolved.called_models) if not is_builtin(model)},
     }
 
 

@@ -26,6 +26,7 @@ from benchmark_adapter.vocabulary import (
     Backend,
     ObservationMode,
 )
+from cocobench_agents.graphs.registry import DEFAULT_PLANNER, PLANNERS
 from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.models.human import HUMAN
 from cocobench_agents.models.settings import ModelSettings
@@ -177,9 +178,9 @@ class RunRequest(Settings):
                     "(AGENT=MODEL, or a mapping in a config file; agent_1=human: a person "
                     "plays that agent).")
     planners: list[str] = shaping(
-        default_factory=lambda: ["centralized"], flag="--planner", min_length=1,
-        description="centralized, decentralized, decentralized-broadcast, leader-worker, "
-                    "oracle, an installed planner (`cocobench planners`) or your own "
+        default_factory=lambda: [DEFAULT_PLANNER], flag="--planner", min_length=1,
+        description=f"{', '.join(PLANNERS)}, an installed planner (`cocobench planners`) "
+                    "or your own "
                     "(FILE.py:NAME, module:NAME). Several: each is an arm (its condition, "
                     "under each observation mode).")
     obs_modes: list[ObservationMode] = shaping(

@@ -14,9 +14,10 @@ from pathlib import Path
 from typing import Any
 
 from benchmark_adapter.tasks import MissingTasksWarning, TaskConfig, load_tasks, select_tasks
+from benchmark_adapter.vocabulary import DEFAULT_TASKS
 from cocobench_agents.engine.errors import RequestError
 from cocobench_agents.engine.request import RunRequest
-from cocobench_agents.graphs import planner_spec
+from cocobench_agents.graphs import NO_MODEL, ORACLE, planner_spec
 from cocobench_agents.harness.plan import (
     SHORTCUTS,
     Condition,
@@ -50,6 +51,13 @@ class ResolvedRun:
     def remote_model_modes(self) -> set[str]:
         """Observation modes under which some condition calls the models."""
         return {c.obs_mode for c in self.conditions if planner_spec(c.planner).uses_models}
+
+    @property
+    def called_models(self) -> list[str]:
+        """Every model a seat of the run may call (the built-ins among them): the models and
+        agent models it names, less the label of a planner's rows that call none."""
+        return [m for m in [*self.models, *self.request.agent_models.values()]
+                if m != NO_MODEL]
 
     def plan_record(self) -> dict[str, Any]:
         """`run.json`'s ``plan``: what the request resolved to (the reports count planned
@@ -87,7 +95,7 @@ def resolve(request: RunRequest, notify: Callable[[str], None]) -> ResolvedRun:
     # several planners: each is an arm (its conditions), paired in the report
     planner_arms = [c.name for c in conditions] if len(planners) > 1 else []
     needs_model = any(planner_spec(c.planner).uses_models for c in conditions)
-    models = list(request.models) or ([] if needs_model else ["oracle"])
+    models = list(request.models) or ([] if needs_model else [NO_MODEL])
     if request.baselines:
         models, conditions = with_baselines(models, conditions)
     if needs_model and not models:
@@ -113,8 +121,32 @@ def with_baselines(models: list[str], conditions: list[Condition]
     """`models` and `conditions` plus the reference rows: the greedy and random built-ins
     under every condition, and the oracle (the upper bound) under each observation mode."""
     models = [*models, *(m for m in BASELINE_MODELS if m not in models)]
-    oracles = [Condition("oracle", obs) for obs in dict.fromkeys(c.obs_mode for c in conditions)]
+    oracles = [Condition(ORACLE, obs) for obs in dict.fromkeys(c.obs_mode for c in conditions)]
     return models, [*conditions, *(c for c in oracles if c not in conditions)]
+
+
+class UnknownTask(RequestError):
+    """A task that is neither a task-config file of one instance nor an instance of its
+    source."""
+
+
+def find_task(task: str, source: str = DEFAULT_TASKS) -> TaskConfig:
+    """The instance `task` names: a task-config file (of one instance), or an instance id of
+    `source` (`cocobench prompts show --task`, the `episode` graph's ``task``)."""
+    if Path(task).is_file():
+        configs = load_tasks(task)
+        if len(configs) != 1:
+            raise UnknownTask(f"{task} holds {len(configs)} instances; pass --source {task} "
+                              "--task ID")
+        return configs[0]
+    configs = load_tasks(source)
+    for config in configs:
+        if config.task_id == task:
+            return config
+    examples = ", ".join(c.task_id for c in configs[:2])
+    raise UnknownTask(f"unknown task {task!r}: no instance {task!r} in {source} (neither a "
+                      f"task-config file; ids look like {examples}; see `cocobench list "
+                      f"{source}`)")
 
 
 def load_source(source: str, missing: str, notify: Callable[[str], None]) -> list[TaskConfig]:

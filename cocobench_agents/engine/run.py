@@ -35,6 +35,7 @@ from cocobench_agents.engine.resume import (
     refused_changes,
 )
 from cocobench_agents.episode_runner import has_human_seat
+from cocobench_agents.graphs import NO_MODEL
 from cocobench_agents.harness.errors import FatalModelError, WorkerError, WorkersLost
 from cocobench_agents.harness.human_log import LoggedDesk
 from cocobench_agents.harness.limits import SpendLimit
@@ -89,7 +90,7 @@ def run(request: RunRequest, *, resume: bool = False, retry_errors: bool = False
                 _check_model_names(request)
             _check_planners_and_endpoints(pool, resolved)
             if resolved.remote_model_modes and (notice := unset_sampling_notice(
-                    request.model_settings, _called_models(resolved))):
+                    request.model_settings, resolved.called_models)):
                 emit(events.Notice(notice))
         if record is None:
             folder.create(run_record(resolved))
@@ -174,13 +175,8 @@ def _check_model_names(request: RunRequest) -> None:
     """Unknown models and missing API keys among the models `request` names."""
     pool = ModelPool(request.model_settings)
     for model in [*request.models, *request.agent_models.values()]:
-        if model != "oracle":
+        if model != NO_MODEL:  # the rows of a planner that calls no model
             pool.validate(model)
-
-
-def _called_models(resolved: ResolvedRun) -> list[str]:
-    """Every model a seat of the run may call (the built-ins among them)."""
-    return [*resolved.models, *resolved.request.agent_models.values()]
 
 
 def _check_planners_and_endpoints(pool: ModelPool, resolved: ResolvedRun) -> None:
@@ -192,7 +188,7 @@ def _check_planners_and_endpoints(pool: ModelPool, resolved: ResolvedRun) -> Non
     if resolved.request.preflight:
         from cocobench_agents.models.preflight import preflight
 
-        preflight(pool, _called_models(resolved), resolved.remote_model_modes)
+        preflight(pool, resolved.called_models, resolved.remote_model_modes)
 
 
 def _execute(todo: list, folder: RunFolder, pool: ModelPool, request: RunRequest,

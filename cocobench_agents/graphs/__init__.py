@@ -14,6 +14,8 @@ _EXPORTS = {
     # the registry, and planners from the researcher's code
     "PLANNERS": ".registry", "PlannerSpec": ".registry", "PlannerError": ".registry",
     "UnknownPlanner": ".registry", "lazy_builder": ".registry", "PAPER_PLANNERS": ".registry",
+    "Seat": ".registry", "DEFAULT_PLANNER": ".registry", "ORACLE": ".registry",
+    "NO_MODEL": ".registry",
     "compiled_graph": ".lookup", "planner_spec": ".lookup", "find_planner": ".lookup",
     # what a strategy is made of
     "PlannerContext": ".context",

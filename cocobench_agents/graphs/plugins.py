@@ -24,9 +24,13 @@ from pathlib import Path
 from typing import Any
 
 from cocobench_agents.graphs.registry import (
+    AGENT_SEAT,
+    LED_ROUND,
     LOOPS,
     PLANNERS,
     PROMPTS,
+    ROUND,
+    TEAM_SEAT,
     PlannerError,
     PlannerSpec,
     UnknownPlanner,
@@ -293,16 +297,20 @@ def _check_code(spec: PlannerSpec, where: str) -> None:
 
 
 def _check_shape(spec: PlannerSpec, where: str) -> None:
-    """The loop and prompt a spec declares are ones the dry run knows how to count."""
+    """The loop, prompt and calls a spec declares are ones the dry run knows how to count."""
     if spec.loop is not None and spec.loop not in LOOPS:
         raise PlannerError(f"planner {where}: loop {spec.loop!r} is not one of "
                            f"{', '.join(LOOPS)} (or None: not declared)")
     if spec.prompt is not None and spec.prompt not in PROMPTS:
         raise PlannerError(f"planner {where}: prompt {spec.prompt!r} is not one of "
                            f"{', '.join(PROMPTS)} (or None: from decentralized)")
-    if spec.loop in ("round", "led-round") and spec.prompt_kind != "agent":
+    if spec.loop in (ROUND, LED_ROUND) and spec.prompt_kind != AGENT_SEAT:
         raise PlannerError(f"planner {where}: loop {spec.loop!r} asks every agent, so its "
-                           "prompt is 'agent', not 'team'")
+                           f"prompt is {AGENT_SEAT!r}, not {TEAM_SEAT!r}")
+    calls = spec.calls_per_seat
+    if not isinstance(calls, int) or isinstance(calls, bool) or calls < 1:
+        raise PlannerError(f"planner {where}: calls_per_seat {calls!r} must be a whole number "
+                           "of at least 1 (the most calls one seat makes in a round)")
 
 
 def _builtin_source(spec: PlannerSpec) -> str:

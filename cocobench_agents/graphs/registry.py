@@ -9,7 +9,7 @@ docs/planners.md).
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -19,38 +19,111 @@ if TYPE_CHECKING:
     from langgraph.graph import StateGraph
 
 
-#: `PlannerSpec.loop` and `PlannerSpec.prompt` values.
-LOOPS = ("step", "round", "led-round")
-PROMPTS = ("team", "agent")
+#: `PlannerSpec.loop` values: who decides in a decision round.
+STEP, ROUND, LED_ROUND = "step", "round", "led-round"
+LOOPS = (STEP, ROUND, LED_ROUND)
+#: The seats a decision round asks: the team's planner, a leader, an agent. `PlannerSpec.prompt`
+#: is one of the first and the last: the prompt its agents' (or its team's) decisions render.
+TEAM_SEAT, LEADER_SEAT, AGENT_SEAT = "team", "leader", "agent"
+PROMPTS = (TEAM_SEAT, AGENT_SEAT)
+
+#: The built-in planners the rest of the package names: the default of a run, and the
+#: reference plan (the upper bound `--baselines` adds).
+DEFAULT_PLANNER = "centralized"
+ORACLE = "oracle"
+#: The model label of the rows of a planner that calls no model (`uses_models=False`): a run
+#: names no model for them, and no model by this name is ever called.
+NO_MODEL = ORACLE
+
+
+@dataclass(frozen=True)
+class Seat:
+    """One model call of a decision round: who decides (`role`), and for an agent, which."""
+
+    role: str  # TEAM_SEAT, LEADER_SEAT or AGENT_SEAT
+    agent: str | None = None
 
 
 @dataclass(frozen=True)
 class PlannerSpec:
-    """A planner: how to build its graph and how a run gives it models. Your own strategy
-    exports one (or just its build function) from a file or package (docs/planners.md)."""
+    """A planner: how to build its graph and how a run gives it models, and the shape of its
+    decisions, which the dry run, `cocobench prompts show` and the viewer read. Your own
+    strategy exports one (or just its build function) from a file or package
+    (docs/planners.md)."""
 
     name: str  # set to the reference it is loaded by (a file's path, an entry point's name)
     code: str  # condition code in run folders and reports: C0, D0, D1, …
     build: Callable[[], StateGraph]
     decentralized: bool  # one model per agent (else one model for the team)
-    uses_models: bool
+    uses_models: bool  # False: it calls no model (the oracle); its rows' model is `NO_MODEL`
     description: str
     # How this strategy retries transient model failures; None: the run-level options.
     retry_policy: RetryPolicy | None = None
-    # How it asks its models, which the dry run's estimate reads (engine/estimate.py):
+    # Who decides in a round, which the dry run counts calls by (`seats`, `most_calls`):
     # "step": one call per landed step (C0); "round": every agent once per round (D0, D1);
     # "led-round": a leader's call, then every agent's, per round (leader-worker); None: not
     # declared (the estimate assumes one call per agent per landed step, and says so).
     loop: str | None = None
     # Which prompt its model calls render: "team" (the centralized prompt: every agent's view
     # and menu) or "agent" (each agent's own); None: "agent" when decentralized, else "team".
+    # A led round's leader renders the leader's prompt.
     prompt: str | None = None
     broadcast: bool = False  # agents read and write the message board (`MSG:`), as in D1
+    # The most model calls one seat makes in a round (a step, for "step"): a strategy that
+    # asks a robot again within a round declares how often (claim-board: 2).
+    calls_per_seat: int = 1
 
     @property
     def prompt_kind(self) -> str:
         """The prompt its calls render: `prompt`, or what `decentralized` implies."""
-        return self.prompt or ("agent" if self.decentralized else "team")
+        return self.prompt or (AGENT_SEAT if self.decentralized else TEAM_SEAT)
+
+    @property
+    def declares_loop(self) -> bool:
+        """Whether its calls are counted from what it declares (else `loop_kind` is assumed
+        and so is the bound of its calls)."""
+        return self.loop is not None or not self.uses_models
+
+    @property
+    def loop_kind(self) -> str:
+        """Its `loop`, or for a spec that declares none, what its prompt implies: the team's
+        model asked as C0 asks it ("step"), or every agent as D0 asks them ("round")."""
+        return self.loop or (ROUND if self.prompt_kind == AGENT_SEAT else STEP)
+
+    def seats(self, agents: Sequence[str]) -> list[Seat]:
+        """Who its first decision round asks, in the order it asks them (none when it calls
+        no model): the team, or agent `agents[0]`, for a step loop; every agent for a round,
+        after the leader for a led round."""
+        if not self.uses_models:
+            return []
+        kind = self.loop_kind
+        if kind == STEP:
+            return [Seat(TEAM_SEAT)] if self.prompt_kind == TEAM_SEAT else \
+                [Seat(AGENT_SEAT, agents[0])]
+        every = [Seat(AGENT_SEAT, agent) for agent in agents]
+        return [Seat(LEADER_SEAT), *every] if kind == LED_ROUND else every
+
+    def seat_calls(self, agent_count: int, rounds: int) -> int:
+        """The most calls one seat makes in an episode of at most `rounds` decision rounds
+        (landed steps, for a step loop): `calls_per_seat` each, and for a spec that declares
+        no loop, one per agent per step (the assumed bound)."""
+        per_round = self.calls_per_seat
+        if not self.declares_loop and self.loop_kind == STEP:
+            per_round *= agent_count
+        return rounds * per_round
+
+    def seat_count(self, agent_count: int) -> int:
+        """How many seats a decision round of a team of `agent_count` asks (`seats`)."""
+        if not self.uses_models:
+            return 0
+        kind = self.loop_kind
+        return 1 if kind == STEP else agent_count + (kind == LED_ROUND)
+
+    def most_calls(self, agent_count: int, budget: int) -> int:
+        """The most model calls of an episode of step budget `budget`: every seat of a round
+        is asked (`seat_calls`), and a round lands at least one step or ends the episode, so
+        there are at most `budget` rounds. Retries are not counted."""
+        return self.seat_count(agent_count) * self.seat_calls(agent_count, budget)
 
 
 def lazy_builder(target: str, **kwargs: Any) -> Callable[[], StateGraph]:
@@ -68,7 +141,7 @@ def lazy_builder(target: str, **kwargs: Any) -> Callable[[], StateGraph]:
 
 _GRAPHS = "cocobench_agents.graphs"
 PLANNERS: dict[str, PlannerSpec] = {spec.name: spec for spec in (
-    PlannerSpec("centralized", "C0", lazy_builder(f"{_GRAPHS}.centralized:build_centralized"),
+    PlannerSpec(DEFAULT_PLANNER, "C0", lazy_builder(f"{_GRAPHS}.centralized:build_centralized"),
                 False, True,
                 "one planner sees all views and moves one agent per step (paper C0)",
                 loop="step", prompt="team"),
@@ -84,7 +157,7 @@ PLANNERS: dict[str, PlannerSpec] = {spec.name: spec for spec in (
                 True, True,
                 "a leader model instructs each robot every round; robots decide in parallel",
                 loop="led-round", prompt="agent", broadcast=True),
-    PlannerSpec("oracle", "OR", lazy_builder(f"{_GRAPHS}.oracle:build_oracle"), False, False,
+    PlannerSpec(ORACLE, "OR", lazy_builder(f"{_GRAPHS}.oracle:build_oracle"), False, False,
                 "the cell's privileged reference plan"),
 )}
 #: The paper's architectures (C0, D0, D1): the planners of the `all`, `image` and `blind`

@@ -11,7 +11,7 @@ from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import DEFAULT_BACKEND, OBSERVATION_MODES
 from cocobench_agents.conditions import condition_name, split_condition
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
-from cocobench_agents.graphs import PAPER_PLANNERS, PLANNERS, find_planner, planner_spec
+from cocobench_agents.graphs import NO_MODEL, PAPER_PLANNERS, PLANNERS, find_planner, planner_spec
 from cocobench_agents.prompts import DEFAULT_SUITE, PromptSuite
 from cocobench_agents.runfolder.episode_key import EpisodeKey, model_slug
 
@@ -175,4 +175,4 @@ def _spec(key: EpisodeKey, config: TaskConfig, model: str, cond: Condition, suit
 
 
 def _model_label(model: str, cond: Condition) -> str:
-    return model if planner_spec(cond.planner).uses_models else "oracle"
+    return model if planner_spec(cond.planner).uses_models else NO_MODEL

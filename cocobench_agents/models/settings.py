@@ -200,9 +200,10 @@ class ModelSettings(BaseModel):
 def unset_sampling_notice(settings: ModelSettings, models: Iterable[str]) -> str | None:
     """A sentence naming the remote models among `models` whose calls carry no temperature
     (neither `temperature` nor `extra_params` sets one): the provider samples at its own
-    default, often above 0, so their episodes are not reproducible. None when there is none."""
-    # "oracle" names the oracle baseline's rows: a planner, no model is called
-    unset = [m for m in dict.fromkeys(models) if m != "oracle" and not is_builtin(m)
+    default, often above 0, so their episodes are not reproducible. None when there is none.
+    `models` are models a seat calls (not the label of the rows of a planner that calls
+    none: `graphs.NO_MODEL`)."""
+    unset = [m for m in dict.fromkeys(models) if not is_builtin(m)
              and settings.temperature_for(m) is None
              and "temperature" not in settings.extra_params]
     if not unset:

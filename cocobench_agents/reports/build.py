@@ -26,7 +26,7 @@ TABLES: tuple[Callable[[result_tables.Ctx], Table], ...] = (
     diagnostics.cost,
     diagnostics.construct_correlation,
 )
-PRIMARY_CONDITION = condition_name(tables.BASELINE_ARCH, IMAGE)  # the paper's main protocol
+PRIMARY_CONDITION = condition_name(result_tables.BASELINE_ARCH, IMAGE)  # the paper's main protocol
 
 
 @dataclass

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cache
 from typing import Any
 
 import jinja2
@@ -19,6 +20,7 @@ from benchmark_adapter.vocabulary import (
     PRODUCER_CONSUMER,
 )
 from cocobench_agents.conditions import split_condition
+from cocobench_agents.graphs import PlannerError, find_planner, planner_spec
 from cocobench_agents.runfolder.result_line import CS_NOTE
 from cocobench_agents.runfolder.summary import HEADERS, LEGEND, summary_table
 from cocobench_agents.viewer.rows import (
@@ -114,7 +116,7 @@ class Pages:
             gantt=gantt([str(a.get("id")) for a in agents], timeline.steps, timeline.categories),
             signal=construct_signal(traj, timeline.steps),
             goal=_goal(traj), compare_href=compare_path(episode.key.task_id),
-            board=bool(timeline.messages) or split_condition(episode.key.condition)[0] == "D1",
+            board=bool(timeline.messages) or broadcasts(episode.key.condition),
             **_outcome(episode.record, traj))
 
     def compare(self, task_id: str) -> str | None:
@@ -149,6 +151,19 @@ class Pages:
             root=root_of(page), live=self.live, junk=self.catalog.junk,
             team_label=team_label, seat_models=seat_models,
             problems=[p for run in self.catalog.runs for p in run.problems], **context)
+
+
+@cache
+def broadcasts(condition: str) -> bool:
+    """Whether the planner of `condition` broadcasts (its spec's `broadcast`), so that its
+    episodes show the message board even when nobody posted. A planner this process cannot
+    find (a file of someone else's run, a package not installed here) shows the board only
+    when messages were posted."""
+    try:
+        name = find_planner(split_condition(condition)[0])
+        return name is not None and planner_spec(name).broadcast
+    except PlannerError:
+        return False
 
 
 def _outcome(record: Mapping[str, Any], traj: Mapping[str, Any] | None) -> dict[str, Any]:

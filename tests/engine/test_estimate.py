@@ -16,7 +16,9 @@ import pytest
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.oracles import oracle_plan
 from benchmark_adapter.tasks import TaskConfig, load_tasks
-from cocobench_agents.engine.estimate import CostPlan, estimate, first_round_requests
+from cocobench_agents.engine.costs import CostPlan
+from cocobench_agents.engine.estimate import estimate
+from cocobench_agents.engine.first_prompts import first_round_requests
 from cocobench_agents.harness import (
     Condition,
     RunOptions,
@@ -136,7 +138,7 @@ def test_a_broadcasting_plugin_is_counted_as_d1_for_the_same_prompts():
 
 
 def test_a_spec_without_a_loop_keeps_the_assumed_bound_but_counts_its_board(tmp_path):
-    # claim-board's shape: broadcasts, may ask an agent twice a round (no loop declared)
+    # a strategy written before specs declared their loop: it broadcasts, nothing more
     source = Path(FIRST_COME.rpartition(":")[0]).read_text()
     undeclared = source.replace('    loop="round",', "    loop=None,")
     (tmp_path / "undeclared.py").write_text(undeclared)

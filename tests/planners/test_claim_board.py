@@ -42,6 +42,58 @@ def prompt_of(document, decision) -> str:
     return document[PROMPTS_FIELD][decision["prompt_hash"]]
 
 
+def test_its_spec_declares_its_shape(claim_board):
+    from cocobench_agents.graphs import planner_spec
+
+    spec = planner_spec(claim_board)
+    assert (spec.loop, spec.calls_per_seat, spec.prompt_kind, spec.broadcast) == \
+        ("round", 2, "agent", True)
+    assert spec.declares_loop and spec.most_calls(agent_count=2, budget=3) == 12
+
+
+def test_its_dry_run_is_exact_against_a_real_run(claim_board, demo, tmp_path):
+    """The estimate from the spec's declared shape, against the calls a run with a remote
+    model (the fake OpenAI server) sends: no more than max_calls, and a first round of the
+    estimated tokens. Robot 1's first answer claims nothing (an Explore), so robot 2's first
+    prompt shows the board the estimate renders: empty."""
+    from cocobench_agents import plan
+    from cocobench_agents.engine import RunRequest
+    from cocobench_agents.models import ModelPool, ModelSettings, import_litellm
+    from tests.models.fake_openai import FakeOpenAI, ok
+
+    model, config = "openai/test-model", demo["G_D1"]
+    explore = next(e.action_id for e in _first_menu(config) if e.skill == "Explore")
+    with FakeOpenAI(default=ok("REASON: go\nACTION: 1")) as server:
+        settings = ModelSettings(api_base=server.base_url)
+        request = RunRequest(out=tmp_path / "run", models=[model], planners=[claim_board],
+                             obs_modes=["blind"], max_steps=3, model_settings=settings,
+                             selection={"sources": ["demo"], "task_ids": [config.task_id]})
+        (row,) = plan(request).rows
+        assert server.count == 0 and not row.assumed  # declared: counted, not assumed
+        assert row.max_calls == 2 * config.agent_count * 3
+        server.program(ok(f"REASON: look\nACTION: {explore}"))
+        spec = EpisodeSpec(config, planner=claim_board, models={"*": model},
+                           obs_mode="blind", max_steps=3)
+        document, _ = run(spec, ModelPool(settings))
+    assert 0 < server.count <= row.max_calls
+    decisions = document["planner_decisions"]
+    assert len(decisions) >= 2 and decisions[0]["status"] == "action"
+    first_round = server.requests[:config.agent_count]
+    sent = sum(import_litellm().token_counter(model=model, messages=r["messages"])
+               for r in first_round)
+    assert sent == row.prompt_tokens
+
+
+def _first_menu(config):
+    from benchmark_adapter.episode import Episode
+    from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
+    from cocobench_agents.tools import EpisodeTools
+
+    tools = EpisodeTools(Episode(config), load_prompt_suite(DEFAULT_SUITE), obs_mode="blind")
+    tools.start()
+    return tools.prompt("agent_1", [], broadcast=True, with_images=False)[2]
+
+
 def test_calls_claim_the_object_they_work_on(claim_board):
     from cocobench_claim_board.graph import claimed_object
 

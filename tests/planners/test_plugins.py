@@ -136,6 +136,7 @@ def test_resume_refuses_a_changed_planner_file_and_keeps_what_was_recorded(strat
     ("{file}:BAD_CODE", "condition code 'C0' is the built-in centralized's"),
     ("{file}:BAD_LOOP", "loop 'rounds' is not one of step, round, led-round"),
     ("{file}:BAD_SHAPE", "loop 'round' asks every agent, so its prompt is 'agent'"),
+    ("{file}:BAD_CALLS", "calls_per_seat 0 must be a whole number of at least 1"),
     ("{file}", "unknown planner"),
     ("{file}:", "expected FILE.py:NAME or package.module:NAME"),
     ("no_such_lab.strategies:build", "planner module 'no_such_lab.strategies' not found"),

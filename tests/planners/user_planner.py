@@ -137,3 +137,5 @@ BAD_LOOP = PlannerSpec("bad-loop", "BL", build_one_node, False, True, "a loop no
                        loop="rounds")
 BAD_SHAPE = PlannerSpec("bad-shape", "BS", build_one_node, False, True, "team prompt, rounds",
                         loop="round", prompt="team")
+BAD_CALLS = PlannerSpec("bad-calls", "BK", build_one_node, True, True, "asks nobody",
+                        loop="round", calls_per_seat=0)

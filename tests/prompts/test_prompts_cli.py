@@ -123,7 +123,8 @@ def test_show_takes_a_config_file(capsys, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("argv", "message"), [
-    (["--task", "X_D9__nowhere"], "Invalid value for --task: no instance 'X_D9__nowhere' in demo"),
+    (["--task", "X_D9__nowhere"],
+     "Invalid value for --task: unknown task 'X_D9__nowhere': no instance 'X_D9__nowhere' in demo"),
     (["--task", J_D4, "--planner", "oracle"], "'oracle' has no prompt to show"),
     (["--task", J_D4, "--planner", "nope"], "unknown planner 'nope'"),
     (["--task", J_D4, "--agent", "agent_1"], "the centralized planner's first prompt is the "

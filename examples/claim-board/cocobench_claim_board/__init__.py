@@ -15,8 +15,9 @@ CLAIM_BOARD = PlannerSpec(
     uses_models=True,
     description="robots claim the object they will work on, in turn, on a shared board; "
                 "a claimed object is off limits to teammates that round",
+    # Its shape, which the dry run counts exactly (docs/planners.md, "What a spec declares"):
+    loop="round",  # every robot is asked in each round, in team order
+    calls_per_seat=2,  # a robot whose pick is claimed is asked once more
     prompt="agent",  # each robot's own prompt
-    broadcast=True,  # with the message board: the dry run counts it
-    # loop: not declared, since a robot may be asked twice in a round (none of "step",
-    # "round", "led-round"); the dry run assumes one call per robot per landed step.
+    broadcast=True,  # with the message board
 )
