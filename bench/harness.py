@@ -34,10 +34,11 @@ from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
+    InProcess,
     RunFolder,
     RunOptions,
-    execute_and_close,
-    execute_in_workers,
+    WorkerProcesses,
     plan_episodes,
 )
 from cocobench_agents.models import (
@@ -119,9 +120,10 @@ def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int,
             folder.create({"name": "bench"})
             start, cpu = time.perf_counter(), _cpu_s()
             if workers > 1:
-                execute_in_workers(planned, folder, settings, jobs=jobs, workers=workers)
+                WorkerProcesses().run(planned, folder, pool,
+                                      ExecutionSettings(jobs=jobs, workers=workers))
             else:
-                asyncio.run(execute_and_close(planned, folder, pool, jobs=jobs))
+                InProcess().run(planned, folder, pool, ExecutionSettings(jobs=jobs))
             wall, cpu = time.perf_counter() - start, _cpu_s() - cpu
             calls = sum(r["usage"]["model_calls"] for r in folder.results())
         ideal = calls * delay / jobs

@@ -46,7 +46,7 @@ from cocobench_agents.prompts import PromptSuite, load_prompt_suite
 from cocobench_agents.tools import EpisodeTools
 
 if TYPE_CHECKING:
-    from cocobench_agents.harness.plan import PlannedEpisode
+    from cocobench_agents.harness.episodes import PlannedEpisode
     from cocobench_agents.models import ModelSettings
 
 #: Seats of a decision round: the team's planner (C0), the leader (leader–worker), an agent.

@@ -17,7 +17,7 @@ from benchmark_adapter.tasks import MissingTasksWarning, TaskConfig, load_tasks,
 from cocobench_agents.engine.errors import RequestError
 from cocobench_agents.engine.request import RunRequest
 from cocobench_agents.graphs import planner_spec
-from cocobench_agents.harness.plan import (
+from cocobench_agents.harness.episodes import (
     SHORTCUTS,
     Condition,
     PlannedEpisode,

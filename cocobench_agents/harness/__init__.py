@@ -1,4 +1,5 @@
-"""Batch runs: suite × conditions × models × epochs into a resumable run folder.
+"""Batch runs: suite × conditions × models × epochs into a resumable run folder, on one of
+the executors (`executors`).
 
 Names load on first use (PEP 562): reading a run folder (reports) must not import the
 planners and LangGraph.
@@ -9,14 +10,17 @@ from __future__ import annotations
 from cocobench_agents.lazy import lazy_getattr
 
 _EXPORTS = {
-    "execute": ".batch", "execute_and_close": ".batch", "infra_error_record": ".batch",
+    "Bounds": ".executor", "Executor": ".executor", "executor_named": ".executors",
+    "ExecutionSettings": ".execution_settings",
+    "InProcess": ".batch", "infra_error_record": ".batch", "run_batch": ".batch",
     "run_one": ".batch",
-    "Condition": ".plan", "EpisodeKey": ".store", "PlanError": ".plan", "PlannedEpisode": ".plan",
-    "RunOptions": ".plan", "parse_conditions": ".plan", "plan_episodes": ".plan",
+    "Condition": ".episodes", "EpisodeKey": ".store", "PlanError": ".episodes",
+    "PlannedEpisode": ".episodes", "RunOptions": ".episodes",
+    "parse_conditions": ".episodes", "plan_episodes": ".episodes",
     "pending_episodes": ".pending",
     "RunFolder": ".store", "RunFolderError": ".store",
-    "WorkerError": ".workers", "available_cores": ".workers", "execute_in_workers": ".workers",
-    "RayOptions": ".ray_executor", "execute_on_ray": ".ray_executor",
+    "WorkerError": ".workers", "WorkerProcesses": ".workers", "available_cores": ".workers",
+    "RayExecutor": ".ray_executor",
 }
 __all__ = sorted(_EXPORTS)
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.infra import is_infra_failure
-from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.harness.store import RunFolder
 
 

@@ -5,7 +5,6 @@ the configs and from prompts rendered the way `cocobench prompts show` renders t
 
 from __future__ import annotations
 
-import asyncio
 import json
 import textwrap
 import time
@@ -19,13 +18,14 @@ from benchmark_adapter.tasks import TaskConfig, load_tasks
 from cocobench_agents.engine.estimate import CostPlan, estimate, first_round_requests
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
+    InProcess,
     RunFolder,
     RunOptions,
-    execute_and_close,
     parse_conditions,
     plan_episodes,
 )
-from cocobench_agents.harness.plan import planner_conditions, suite_arms
+from cocobench_agents.harness.episodes import planner_conditions, suite_arms
 from cocobench_agents.models import (
     ModelPool,
     ModelRequest,
@@ -346,7 +346,7 @@ def test_a_run_sends_the_estimated_first_round_and_no_more_calls(tmp_path, condi
             assert server.count == 0  # the estimate called no model
             folder = RunFolder(tmp_path / f"run{i}")
             folder.create({"name": "estimate"})
-            asyncio.run(execute_and_close([planned], folder, ModelPool(settings), jobs=1))
+            InProcess().run([planned], folder, ModelPool(settings), ExecutionSettings(jobs=1))
             assert 0 < server.count <= estimated.max_calls
             agents = planned.spec.config.agent_count
             first_round = {"centralized": 1, "decentralized-broadcast": agents,

@@ -12,9 +12,10 @@ from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
+    InProcess,
     RunFolder,
     RunOptions,
-    execute_and_close,
     plan_episodes,
 )
 from cocobench_agents.models import ModelPool, ModelSettings
@@ -63,7 +64,7 @@ def test_a_huge_id_in_a_run_is_the_models_failure_not_an_infra_error(tmp_path) -
                              [Condition("centralized", "blind")], 1, RunOptions())
     folder = RunFolder(tmp_path / "run")
     folder.create({"name": "huge-id"})
-    asyncio.run(execute_and_close(episodes, folder, ModelPool(ModelSettings()), jobs=1))
+    InProcess().run(episodes, folder, ModelPool(ModelSettings()), ExecutionSettings(jobs=1))
     [result] = folder.results()
     assert "infra_error" not in result
     assert result["terminal_reason"] == "invalid_action_id"

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import asyncio
 from pathlib import Path
 
 import pytest
@@ -11,9 +10,10 @@ import pytest
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
+    InProcess,
     RunFolder,
     RunOptions,
-    execute_and_close,
     plan_episodes,
 )
 from cocobench_agents.harness.store import EpisodeKey, RunFolderError
@@ -57,5 +57,5 @@ def test_an_escaping_episode_stops_the_run_and_writes_nothing_outside(tmp_path: 
     folder = RunFolder(tmp_path / "out" / "run")
     folder.create({"name": "t"})
     with pytest.raises(RunFolderError, match="not inside the run folder"):
-        asyncio.run(execute_and_close(episodes, folder, ModelPool(ModelSettings()), jobs=1))
+        InProcess().run(episodes, folder, ModelPool(ModelSettings()), ExecutionSettings(jobs=1))
     assert all(folder.path in p.parents for p in files_under(tmp_path))

@@ -5,7 +5,6 @@ their retries and never stop a run."""
 
 from __future__ import annotations
 
-import asyncio
 import pickle
 
 import pytest
@@ -13,10 +12,11 @@ import pytest
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
+    InProcess,
     RunFolder,
     RunOptions,
-    execute_and_close,
-    execute_in_workers,
+    WorkerProcesses,
     plan_episodes,
 )
 from cocobench_agents.harness.errors import (
@@ -60,11 +60,12 @@ def new_folder(path) -> RunFolder:
 
 
 def run_locally(folder: RunFolder, server: FakeOpenAI) -> None:
-    asyncio.run(execute_and_close(plan(), folder, ModelPool(settings(server)), jobs=JOBS))
+    InProcess().run(plan(), folder, ModelPool(settings(server)), ExecutionSettings(jobs=JOBS))
 
 
 def run_in_workers(folder: RunFolder, server: FakeOpenAI) -> None:
-    execute_in_workers(plan(), folder, settings(server), jobs=JOBS, workers=2)
+    WorkerProcesses().run(plan(), folder, ModelPool(settings(server)),
+                          ExecutionSettings(jobs=JOBS, workers=2))
 
 
 @pytest.mark.parametrize("execute", [run_locally, run_in_workers], ids=["asyncio", "workers"])

@@ -4,16 +4,16 @@ many episodes each node ran and how many of them were re-queued."""
 
 from __future__ import annotations
 
-import asyncio
 import json
 import shutil
 
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
+    InProcess,
     RunFolder,
     RunOptions,
-    execute_and_close,
     pending_episodes,
     plan_episodes,
 )
@@ -43,7 +43,7 @@ def test_node_fields_are_valid_and_survive_resume_and_report(tmp_path):
                             [Condition("centralized", "blind")], 1, RunOptions())
     local = RunFolder(tmp_path / "local")
     local.create({"name": "local"})
-    asyncio.run(execute_and_close(planned, local, ModelPool(), jobs=2))
+    InProcess().run(planned, local, ModelPool(), ExecutionSettings(jobs=2))
     shutil.copytree(local.path, tmp_path / "ray")
     ray = RunFolder(tmp_path / "ray")
     lines = [json.loads(line) for line in (ray.path / "results.jsonl").read_text().splitlines()]

@@ -20,13 +20,16 @@ from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import load_task, load_tasks
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
+    InProcess,
     RunFolder,
     RunOptions,
     WorkerError,
-    execute_and_close,
     plan_episodes,
 )
-from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray, fleet_shape
+from cocobench_agents.harness.executor import ExecutorStarted
+from cocobench_agents.harness.ray_executor import RayExecutor
+from cocobench_agents.harness.ray_fleet import fleet_shape
 from cocobench_agents.harness.ray_limit import ConcurrencyLimiter
 from cocobench_agents.harness.ray_local import children_of
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
@@ -126,9 +129,14 @@ def new_folder(path: Path) -> RunFolder:
     return folder
 
 
+def started(shapes: list[ExecutorStarted]):
+    """A handler that keeps what the executor says of its fleet."""
+    return lambda event: shapes.append(event) if isinstance(event, ExecutorStarted) else None
+
+
 def local_run(planned, path: Path, settings: ModelSettings | None = None) -> RunFolder:
     folder = new_folder(path)
-    asyncio.run(execute_and_close(planned, folder, ModelPool(settings), jobs=4))
+    InProcess().run(planned, folder, ModelPool(settings), ExecutionSettings(jobs=4))
     return folder
 
 
@@ -139,8 +147,9 @@ def test_a_ray_run_equals_a_local_run(ray_cluster, tmp_path):
     planned = demo_plan()
     shapes = []
     folder = new_folder(tmp_path / "ray")
-    execute_on_ray(planned, folder, ModelSettings(), jobs=4, options=RayOptions(workers=2),
-                   on_start=shapes.append)
+    execution = ExecutionSettings(jobs=4, workers=2)
+    RayExecutor().run(planned, folder, ModelPool(ModelSettings()), execution,
+                      on_event=started(shapes))
     assert [len(s.capacities) for s in shapes] == [2]
     assert episodes(folder) == episodes(local_run(planned, tmp_path / "local"))
     nodes = {record["node"] for record in folder.results()}
@@ -211,7 +220,8 @@ def test_the_limit_on_model_calls_holds_across_workers(ray_cluster, counting_ser
     settings = ModelSettings(api_base=counting_server.url, transport="http", max_concurrency=2,
                              timeout_s=10)
     folder = new_folder(tmp_path / "limited")
-    execute_on_ray(planned, folder, settings, jobs=8, options=RayOptions(workers=2))
+    execution = ExecutionSettings(jobs=8, workers=2)
+    RayExecutor().run(planned, folder, ModelPool(settings), execution)
     records = list(folder.results())
     assert len(records) == len(planned) and not any(r.get("infra_error") for r in records)
     assert counting_server.calls >= len(planned)
@@ -287,10 +297,11 @@ def thor_reference(control, tmp_path_factory) -> dict:
 def test_ai2thor_workers_equal_a_local_run(ray_cluster, thor_reference, tmp_path):
     shapes = []
     folder = new_folder(tmp_path / "thor")
-    execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=8,
-                   options=RayOptions(thor_gpus_per_worker=0.25), on_start=shapes.append)
+    execution = ExecutionSettings(jobs=8, thor_gpus_per_worker=0.25)
+    RayExecutor().run(thor_plan(), folder, ModelPool(ModelSettings()), execution,
+                      on_event=started(shapes))
     # One logical GPU at 0.25 each: 4 workers would fit, the 2 CPUs allow 2.
-    assert shapes[0].capacities == (1, 1) and shapes[0].num_gpus == 0.25
+    assert shapes[0].capacities == (1, 1) and "0.25 GPU each" in shapes[0].where
     assert episodes(folder) == thor_reference
 
 
@@ -304,8 +315,8 @@ def test_a_dead_unity_or_worker_costs_one_rerun_and_a_second_death_an_error(
                                                    always: "always"}))
     folder = new_folder(tmp_path / "dying")
     try:
-        execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=4,
-                       options=RayOptions(workers=2, thor_gpus_per_worker=0.5))
+        execution = ExecutionSettings(jobs=4, workers=2, thor_gpus_per_worker=0.5)
+        RayExecutor().run(thor_plan(), folder, ModelPool(ModelSettings()), execution)
     finally:
         (control / "plan.json").unlink()
     assert {p.name for p in control.iterdir()} >= {f"{once}.once", f"{exits}.exit"}
@@ -327,8 +338,8 @@ def test_workers_on_a_node_without_a_renderer_stop_the_run_before_any_episode(
     folder = new_folder(tmp_path / "no-gpu")
     try:
         with pytest.raises(WorkerError, match=r"could not start: .*ThorUnavailable"):
-            execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=2,
-                           options=RayOptions(workers=1, thor_gpus_per_worker=0.5))
+            execution = ExecutionSettings(jobs=2, workers=1, thor_gpus_per_worker=0.5)
+            RayExecutor().run(thor_plan(), folder, ModelPool(ModelSettings()), execution)
     finally:
         (control / "no-renderer").unlink()
     assert list(folder.results()) == []

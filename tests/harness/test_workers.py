@@ -17,14 +17,16 @@ import pytest
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
     RunFolder,
     RunOptions,
-    execute_in_workers,
+    WorkerProcesses,
     plan_episodes,
 )
+from cocobench_agents.harness.executor import on_recorded
 from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.harness.workers import share
-from cocobench_agents.models import ModelSettings
+from cocobench_agents.models import ModelPool
 from tests.harness.runaway_planners import RUNAWAY_TASK, SLOW_TASK
 
 PLANTED = Path(__file__).with_name("runaway_planners.py")
@@ -48,8 +50,8 @@ def test_a_killed_worker_is_replaced_and_its_episodes_run_again(tmp_path):
             os.kill(victim.pid, signal.SIGKILL)
             killed.append(victim.name)
 
-    execute_in_workers(planned, folder, ModelSettings(), jobs=4, workers=2,
-                       on_result=kill_a_worker)
+    WorkerProcesses().run(planned, folder, ModelPool(), ExecutionSettings(jobs=4, workers=2),
+                          on_event=on_recorded(kill_a_worker))
     records = list(folder.results())
     keys = {(r["condition"], r["task_id"], r["epoch"]) for r in records}
     assert len(keys) == len(planned) == len(records)  # every episode once, none lost

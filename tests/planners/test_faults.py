@@ -6,7 +6,6 @@ written nowhere."""
 
 from __future__ import annotations
 
-import asyncio
 import json
 from pathlib import Path
 
@@ -15,9 +14,10 @@ import pytest
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
+    ExecutionSettings,
+    InProcess,
     RunFolder,
     RunOptions,
-    execute_and_close,
     plan_episodes,
 )
 from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
@@ -88,7 +88,7 @@ def batch(request, tmp_path: Path, monkeypatch) -> tuple[RunFolder, ByModel]:
                                  RunOptions())
         folder = RunFolder(tmp_path / "run")
         folder.create({"name": "faults"})
-        asyncio.run(execute_and_close(episodes, folder, ModelPool(settings), jobs=4))
+        InProcess().run(episodes, folder, ModelPool(settings), ExecutionSettings(jobs=4))
         yield folder, server
 
 
