@@ -37,7 +37,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     WorkerProcesses,
     plan_episodes,
 )
@@ -110,7 +109,7 @@ def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int,
         url = server.stdout.readline().strip()
         tasks = configs[:episodes]
         planned = plan_episodes(tasks, ["openai/bench"], [Condition("centralized", "blind")], 1,
-                                RunOptions(max_steps=max_steps))
+                                max_steps=max_steps)
         settings = ModelSettings(api_base=url, max_concurrency=jobs, timeout_s=30,
                                  transport=transport)
         pool = ModelPool(settings)

@@ -39,7 +39,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     plan_episodes,
 )
 from cocobench_agents.harness.executor import Bounds, on_recorded
@@ -175,7 +174,7 @@ def main() -> None:
         url = server.stdout.readline().strip()
         planned = plan_episodes(load_tasks("cocobench-240")[:args.episodes], ["openai/bench"],
                                 [Condition("centralized", "blind")], 1,
-                                RunOptions(max_steps=args.max_steps))
+                                max_steps=args.max_steps)
         settings = ModelSettings(api_base=url, max_concurrency=args.jobs, timeout_s=30,
                                  transport=args.transport)
         ModelPool(settings).validate("openai/bench")

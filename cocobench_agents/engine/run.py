@@ -139,7 +139,7 @@ def _checked(request: RunRequest, record: dict[str, Any] | None, folder: RunFold
 def _check_suites_unchanged(resolved: ResolvedRun, record: dict[str, Any],
                             unchanged: Callable[..., None]) -> None:
     """Refuse a resumed run's prompt suite whose files changed since it was recorded."""
-    if not resolved.options.arms:
+    if not resolved.arms:
         unchanged(resolved.suites[0], record.get("prompt_suite") or {})
         return
     recorded = {r.get("arm"): r for r in record.get("prompt_suites") or []

@@ -15,7 +15,7 @@ _EXPORTS = {
     "InProcess": ".batch", "infra_error_record": ".batch", "run_batch": ".batch",
     "run_one": ".batch",
     "Condition": ".episodes", "EpisodeKey": ".store", "PlanError": ".episodes",
-    "PlannedEpisode": ".episodes", "RunOptions": ".episodes",
+    "PlannedEpisode": ".episodes",
     "parse_conditions": ".episodes", "plan_episodes": ".episodes",
     "pending_episodes": ".pending",
     "RunFolder": ".store", "RunFolderError": ".store",

@@ -21,7 +21,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     parse_conditions,
     plan_episodes,
 )
@@ -54,7 +53,7 @@ ORACLE = Condition("oracle", "image")
 
 def plan(models: list[str], conditions: list[Condition], tasks: list[TaskConfig] = DEMO,
          **options) -> list:
-    return plan_episodes(list(tasks), models, conditions, 1, RunOptions(**options))
+    return plan_episodes(list(tasks), models, conditions, 1, **options)
 
 
 def first_prompt(config: TaskConfig, *, agent: str | None = None, obs: str = "image",
@@ -288,7 +287,7 @@ def test_to_json_is_exactly_the_documented_object():
 
 def test_every_episode_has_its_first_prompt_tokens_and_a_row_sums_them():
     conditions = [C0_BLIND, D1_BLIND, ORACLE]
-    episodes = plan_episodes(list(DEMO), ["greedy"], conditions, 2, RunOptions())
+    episodes = plan_episodes(list(DEMO), ["greedy"], conditions, 2)
     result = estimate(episodes, ModelSettings())
     assert len(result.episodes) == len(conditions) * len(DEMO) * 2
     for r in result.rows:

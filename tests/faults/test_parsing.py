@@ -15,7 +15,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     plan_episodes,
 )
 from cocobench_agents.models import ModelPool, ModelSettings
@@ -61,7 +60,7 @@ def test_a_huge_id_in_a_run_is_the_models_failure_not_an_infra_error(tmp_path) -
     script.write_text(json.dumps([f"REASON: all in\nACTION: {digits}"]), encoding="utf-8")
     config = next(c for c in load_tasks("demo") if c.cell == "G_D1")
     episodes = plan_episodes([config], [f"scripted:{script}"],
-                             [Condition("centralized", "blind")], 1, RunOptions())
+                             [Condition("centralized", "blind")], 1)
     folder = RunFolder(tmp_path / "run")
     folder.create({"name": "huge-id"})
     InProcess().run(episodes, folder, ModelPool(ModelSettings()), ExecutionSettings(jobs=1))

@@ -13,7 +13,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     plan_episodes,
 )
 from cocobench_agents.harness.store import EpisodeKey, RunFolderError
@@ -52,8 +51,7 @@ def test_an_escaping_episode_stops_the_run_and_writes_nothing_outside(tmp_path: 
     """A config built in Python skips the load-time checks; its trajectory is still refused."""
     config = next(c for c in load_tasks("demo") if c.cell == "G_D1")
     evil = config.model_copy(update={"task_id": "../../../../escaped"})
-    episodes = plan_episodes([evil], ["greedy"], [Condition("centralized", "blind")], 1,
-                             RunOptions())
+    episodes = plan_episodes([evil], ["greedy"], [Condition("centralized", "blind")], 1)
     folder = RunFolder(tmp_path / "out" / "run")
     folder.create({"name": "t"})
     with pytest.raises(RunFolderError, match="not inside the run folder"):

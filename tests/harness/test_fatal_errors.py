@@ -15,7 +15,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     WorkerProcesses,
     plan_episodes,
 )
@@ -45,7 +44,7 @@ def server():
 
 def plan():
     return plan_episodes(load_tasks("cocobench-240")[:EPISODES], [MODEL],
-                         [Condition("centralized", "blind")], 1, RunOptions(max_steps=3))
+                         [Condition("centralized", "blind")], 1, max_steps=3)
 
 
 def settings(server: FakeOpenAI) -> ModelSettings:

@@ -13,7 +13,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     pending_episodes,
     plan_episodes,
 )
@@ -40,7 +39,7 @@ def test_node_lines_count_episodes_and_requeues_per_node():
 
 def test_node_fields_are_valid_and_survive_resume_and_report(tmp_path):
     planned = plan_episodes(load_tasks("demo"), ["random:7"],
-                            [Condition("centralized", "blind")], 1, RunOptions())
+                            [Condition("centralized", "blind")], 1)
     local = RunFolder(tmp_path / "local")
     local.create({"name": "local"})
     InProcess().run(planned, local, ModelPool(), ExecutionSettings(jobs=2))

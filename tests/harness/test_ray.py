@@ -23,7 +23,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     WorkerError,
     plan_episodes,
 )
@@ -104,7 +103,7 @@ def _alive(pid: int) -> bool:
 def demo_plan(**options):
     return plan_episodes(load_tasks("demo"), ["random:7"],
                          [Condition("centralized", "blind"), Condition("decentralized", "blind")],
-                         2, RunOptions(**options))
+                         2, **options)
 
 
 RAY_ONLY = ("elapsed_s", "node", "requeued")  # where and when, not what, an episode ran
@@ -216,7 +215,7 @@ def test_the_limit_on_model_calls_holds_across_workers(ray_cluster, counting_ser
     # calls through, 4 in all; the run's limiter lets 2 through across both.
     planned = plan_episodes(load_tasks("demo")[:4], ["openai/m"],
                             [Condition("centralized", "blind"),
-                             Condition("decentralized", "blind")], 1, RunOptions(max_steps=3))
+                             Condition("decentralized", "blind")], 1, max_steps=3)
     settings = ModelSettings(api_base=counting_server.url, transport="http", max_concurrency=2,
                              timeout_s=10)
     folder = new_folder(tmp_path / "limited")
@@ -272,7 +271,7 @@ def test_the_fleet_fits_the_cluster():
 def thor_plan():
     return plan_episodes([load_task(p) for p in THOR_TASKS], ["random:3"],
                          [Condition("centralized", "blind")], 1,
-                         RunOptions(backend="ai2thor", max_steps=6))
+                         backend="ai2thor", max_steps=6)
 
 
 @pytest.fixture(scope="module")

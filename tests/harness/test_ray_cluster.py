@@ -32,7 +32,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     plan_episodes,
 )
 from cocobench_agents.harness.errors import FatalModelError, WorkerEnvironmentError, WorkersLost
@@ -129,7 +128,7 @@ def settings(server: FakeOpenAI) -> ModelSettings:
 
 def plan(count: int = 16):
     return plan_episodes(load_tasks("cocobench-240")[:count], ["openai/fake"],
-                         [Condition("centralized", "blind")], 1, RunOptions(max_steps=4))
+                         [Condition("centralized", "blind")], 1, max_steps=4)
 
 
 def new_folder(path: Path) -> RunFolder:
@@ -346,7 +345,7 @@ def test_a_fatal_model_error_stops_the_dispatch_on_ray(cluster, server, tmp_path
 def thor_plan():
     return plan_episodes([load_task(p) for p in THOR_TASKS], ["random:3"],
                          [Condition("centralized", "blind")], 1,
-                         RunOptions(backend="ai2thor", max_steps=6))
+                         backend="ai2thor", max_steps=6)
 
 
 @pytest.fixture(scope="module")

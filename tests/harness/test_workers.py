@@ -19,7 +19,6 @@ from cocobench_agents.harness import (
     Condition,
     ExecutionSettings,
     RunFolder,
-    RunOptions,
     WorkerProcesses,
     plan_episodes,
 )
@@ -35,7 +34,7 @@ PLANTED = Path(__file__).with_name("runaway_planners.py")
 def plan():
     return plan_episodes(load_tasks("demo"), ["random:7"],
                          [Condition("centralized", "blind"), Condition("decentralized", "blind")],
-                         2, RunOptions())
+                         2)
 
 
 def test_a_killed_worker_is_replaced_and_its_episodes_run_again(tmp_path):

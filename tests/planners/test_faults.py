@@ -17,7 +17,6 @@ from cocobench_agents.harness import (
     ExecutionSettings,
     InProcess,
     RunFolder,
-    RunOptions,
     plan_episodes,
 )
 from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
@@ -84,8 +83,7 @@ def batch(request, tmp_path: Path, monkeypatch) -> tuple[RunFolder, ByModel]:
                                  backoff_max_s=0.02, max_reply_chars=4_000,
                                  transport=request.param)
         models = [f"openai/{name}" for name in EXPECTED]
-        episodes = plan_episodes([config], models, [Condition("centralized", "blind")], 1,
-                                 RunOptions())
+        episodes = plan_episodes([config], models, [Condition("centralized", "blind")], 1)
         folder = RunFolder(tmp_path / "run")
         folder.create({"name": "faults"})
         InProcess().run(episodes, folder, ModelPool(settings), ExecutionSettings(jobs=4))
