@@ -12,9 +12,9 @@ worker that dies (its process, its node, its Unity) is dropped, and its episodes
 back to the front of the queue, once each, to run alone. The driver also watches each worker
 (`runaway`): one past its memory budget, or whose event loop stops answering, is killed; the
 episode that does it again alone is recorded as an infrastructure error naming the cause. A
-new worker starts whenever Ray has room for one
-(a node that joined, resources set free), up to `workers`; the run never waits for one while
-another can take episodes, and stops (`WorkersLost`) when none has been alive for `wait_s`.
+new worker starts whenever Ray has room for one (a node that joined, resources set free), up
+to `workers`; the run never waits for one while another can take episodes, and stops
+(`WorkersLost`) when none has been alive for `ray_wait`.
 Model calls hold a permit of the run's `ConcurrencyLimiter`, so `max_concurrency` is a limit
 per model across the cluster.
 
