@@ -34,9 +34,9 @@ from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
 from cocobench_agents.harness import (
     Condition,
-    RunOptions,
-    execute_and_close,
-    execute_in_workers,
+    ExecutionSettings,
+    InProcess,
+    WorkerProcesses,
     plan_episodes,
 )
 from cocobench_agents.models import (
@@ -109,7 +109,7 @@ def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int,
         url = server.stdout.readline().strip()
         tasks = configs[:episodes]
         planned = plan_episodes(tasks, ["openai/bench"], [Condition("centralized", "blind")], 1,
-                                RunOptions(max_steps=max_steps))
+                                max_steps=max_steps)
         settings = ModelSettings(api_base=url, max_concurrency=jobs, timeout_s=30,
                                  transport=transport)
         pool = ModelPool(settings)
@@ -119,9 +119,10 @@ def throughput(configs, episodes: int, jobs: int, delay: float, max_steps: int,
             folder.create({"name": "bench"})
             start, cpu = time.perf_counter(), _cpu_s()
             if workers > 1:
-                execute_in_workers(planned, folder, settings, jobs=jobs, workers=workers)
+                WorkerProcesses().run(planned, folder, pool,
+                                      ExecutionSettings(jobs=jobs, workers=workers))
             else:
-                asyncio.run(execute_and_close(planned, folder, pool, jobs=jobs))
+                InProcess().run(planned, folder, pool, ExecutionSettings(jobs=jobs))
             wall, cpu = time.perf_counter() - start, _cpu_s() - cpu
             calls = sum(r["usage"]["model_calls"] for r in folder.results())
         ideal = calls * delay / jobs

@@ -23,7 +23,6 @@ Usage: python bench/ray_scaling.py [--part scaling|nodes] [--episodes 64] [--job
 from __future__ import annotations
 
 import argparse
-import asyncio
 import os
 import statistics
 import subprocess
@@ -35,8 +34,14 @@ from pathlib import Path
 from harness import SERVER  # bench/harness.py: the fake OpenAI-compatible server
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
-from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
+from cocobench_agents.harness import (
+    Condition,
+    ExecutionSettings,
+    InProcess,
+    plan_episodes,
+)
+from cocobench_agents.harness.executor import Bounds, on_recorded
+from cocobench_agents.harness.ray_executor import RayExecutor
 from cocobench_agents.harness.ray_local import driver_token
 from cocobench_agents.harness.ray_session import ray_session, reload_ray_config
 from cocobench_agents.models import ModelPool, ModelSettings
@@ -53,10 +58,10 @@ def one_run(planned, settings: ModelSettings, jobs: int, workers: int | None
         folder.create({"name": "bench"})
         start = time.perf_counter()
         if workers is None:
-            asyncio.run(execute_and_close(planned, folder, ModelPool(settings), jobs=jobs))
+            InProcess().run(planned, folder, ModelPool(settings), ExecutionSettings(jobs=jobs))
         else:
-            execute_on_ray(planned, folder, settings, jobs=jobs,
-                           options=RayOptions(workers=workers))
+            RayExecutor().run(planned, folder, ModelPool(settings),
+                              ExecutionSettings(jobs=jobs, workers=workers))
         wall = time.perf_counter() - start
         records = list(folder.results())
     errors = sum(bool(r.get("infra_error")) for r in records)
@@ -134,13 +139,14 @@ def _add_a_node(cluster, planned, settings: ModelSettings) -> float:
     return first[0] - added
 
 
-def _run_on(cluster, planned, settings: ModelSettings, on_result, **options) -> None:
+def _run_on(cluster, planned, settings: ModelSettings, on_result, limit=None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         folder = RunFolder(Path(tmp) / "run")
         folder.create({"name": "bench"})
-        execute_on_ray(planned, folder, settings, jobs=NODE_JOBS,
-                       options=RayOptions(address=cluster.address), on_result=on_result,
-                       **options)
+        execution = ExecutionSettings(executor="ray", jobs=NODE_JOBS,
+                                      ray_address=cluster.address)
+        RayExecutor().run(planned, folder, ModelPool(settings), execution,
+                          bounds=Bounds(spend=limit), on_event=on_recorded(on_result))
 
 
 def _wait_until_gone(cluster, node_id: str) -> None:
@@ -168,7 +174,7 @@ def main() -> None:
         url = server.stdout.readline().strip()
         planned = plan_episodes(load_tasks("cocobench-240")[:args.episodes], ["openai/bench"],
                                 [Condition("centralized", "blind")], 1,
-                                RunOptions(max_steps=args.max_steps))
+                                max_steps=args.max_steps)
         settings = ModelSettings(api_base=url, max_concurrency=args.jobs, timeout_s=30,
                                  transport=args.transport)
         ModelPool(settings).validate("openai/bench")

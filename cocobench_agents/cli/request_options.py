@@ -9,12 +9,13 @@ table of names; each also reads a ``COCOBENCH_RUN_<OPTION>`` variable (`--max-st
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, get_args
 
 import click
 
 from benchmark_adapter.vocabulary import BACKEND_NAMES, OBSERVATION_MODES
 from cocobench_agents.engine.request import iter_fields
+from cocobench_agents.harness.execution_settings import ExecutorName
 from cocobench_agents.models.settings import TRANSPORTS
 
 ENV_PREFIX = "COCOBENCH_RUN_"
@@ -87,7 +88,7 @@ _OPTIONS = [
                    type=click.FloatRange(min=0, min_open=True), metavar="S"),
     request_option("--preflight/--no-preflight", name="preflight"),
     request_option("--backend", name="backend", type=click.Choice(list(BACKEND_NAMES))),
-    request_option("--executor", name="executor", type=click.Choice(["local", "ray"])),
+    request_option("--executor", name="executor", type=click.Choice(get_args(ExecutorName))),
     request_option("--ray-address", name="ray_address", metavar="HOST:PORT"),
     request_option("--thor-gpus-per-worker", name="thor_gpus_per_worker",
                    type=click.FloatRange(min=0)),

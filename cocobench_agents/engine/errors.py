@@ -26,7 +26,7 @@ USER_ERRORS = {
     "cocobench_agents.models.preflight": "PreflightError",
     "cocobench_agents.runfolder.errors": "RunFolderError",
     "cocobench_agents.runfolder.lock": "RunLocked",
-    "cocobench_agents.harness.plan": "PlanError",
+    "cocobench_agents.harness.episodes": "PlanError",
     "cocobench_agents.harness.ray_session": "RayUnavailable",
     "cocobench_agents.harness.errors": "WorkerEnvironmentError",
     "cocobench_agents.prompts.suite": "PromptSuiteError",

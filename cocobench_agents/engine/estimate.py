@@ -44,7 +44,7 @@ from cocobench_agents.graphs.registry import STEP
 from cocobench_agents.models import import_litellm
 
 if TYPE_CHECKING:
-    from cocobench_agents.harness.plan import PlannedEpisode
+    from cocobench_agents.harness.episodes import PlannedEpisode
     from cocobench_agents.models import ModelSettings
 
 __all__ = ["CostPlan", "estimate"]

@@ -1,8 +1,8 @@
 """What the engine tells a front end while a run goes: any door (the command line's rich
 progress, a notebook, a web page) draws these; the engine itself prints nothing.
 
-Step events come from episodes run in this process (those with a human seat); worker
-processes report each episode's start and result, Ray each result.
+Every executor reports each episode's start and result line (`harness.executor`); step
+events come from episodes run in this process (those with a human seat).
 """
 
 from __future__ import annotations
@@ -11,6 +11,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+# What an executor tells of its episodes, told on as it is.
+from cocobench_agents.harness.executor import EpisodeRecorded, EpisodeStarted, StepLanded
 
 
 @dataclass(frozen=True)
@@ -33,29 +36,6 @@ class RunStarted:
     total: int
     done: int
     recorded: tuple[dict[str, Any], ...] = ()
-
-
-@dataclass(frozen=True)
-class EpisodeStarted:
-    """An episode began (its key as in result lines: model, condition, arm, task, epoch;
-    from the in-process executor, also its seats' `models`)."""
-
-    key: dict[str, Any]
-
-
-@dataclass(frozen=True)
-class StepLanded:
-    """One step of an episode landed in the simulator (its trajectory item)."""
-
-    key: dict[str, Any]
-    step: dict[str, Any]
-
-
-@dataclass(frozen=True)
-class EpisodeRecorded:
-    """An episode's result line was appended to the run folder."""
-
-    record: dict[str, Any]
 
 
 @dataclass(frozen=True)

@@ -66,7 +66,7 @@ def run_record(resolved: ResolvedRun) -> dict[str, Any]:
 def _suites_record(resolved: ResolvedRun) -> dict[str, Any]:
     """The prompt suite (spec, version, content hash, a folder's path), or with arms each
     arm's suite: what a resume checks the suites against."""
-    arms = resolved.options.arms
+    arms = resolved.arms
     by_spec = {suite.spec: suite for suite in resolved.suites}
     if not arms:
         return {"prompt_suite": resolved.suites[0].record()}

@@ -15,7 +15,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, field_validator
 from pydantic.fields import FieldInfo
 
 from benchmark_adapter.vocabulary import (
@@ -27,6 +27,7 @@ from benchmark_adapter.vocabulary import (
     ObservationMode,
 )
 from cocobench_agents.graphs.registry import DEFAULT_PLANNER, PLANNERS
+from cocobench_agents.harness.execution_settings import ExecutionSettings
 from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.models.human import HUMAN
 from cocobench_agents.models.settings import ModelSettings
@@ -77,39 +78,6 @@ class TaskSelection(Settings):
     @classmethod
     def _lists(cls, value: Any) -> Any:
         return _one_or_more(value)
-
-
-class ExecutionSettings(Settings):
-    """Where and how many episodes run at once. Results do not depend on these."""
-
-    executor: Literal["local", "ray"] = run_setting(
-        "local", flag="--executor",
-        description="Where episodes run: this process (and --workers processes), or Ray "
-                    "workers on this machine or a cluster (pip install "
-                    "'cocobench-agents[ray]'; see docs/distributed.md).")
-    jobs: int = run_setting(8, flag="--jobs", ge=1, description="Episodes run concurrently.")
-    workers: int | None = run_setting(
-        None, flag="--workers", ge=0,
-        description="Processes sharing the jobs (0: one per core; default 1). With ray: Ray "
-                    "workers (default: as many as fit).")
-    ray_address: str | None = run_setting(
-        None, flag="--ray-address",
-        description="With executor ray: join the cluster whose head is at HOST:PORT "
-                    "(default: start a private local Ray).")
-    thor_gpus_per_worker: float = run_setting(
-        0.25, flag="--thor-gpus-per-worker", ge=0,
-        description="With executor ray and backend ai2thor: the GPU share of each worker "
-                    "(one Unity each); 0 for CPU nodes.")
-    ray_wait: float = run_setting(
-        300.0, flag="--ray-wait", gt=0,
-        description="With executor ray: seconds the run goes on with no worker alive (every "
-                    "node lost, none with room) before it stops; --resume finishes it.")
-
-    @model_validator(mode="after")
-    def _address_needs_ray(self) -> ExecutionSettings:
-        if self.ray_address and self.executor != "ray":
-            raise ValueError("ray_address (--ray-address) needs executor ray (--executor ray)")
-        return self
 
 
 class Limits(Settings):

@@ -18,11 +18,10 @@ from benchmark_adapter.vocabulary import DEFAULT_TASKS
 from cocobench_agents.engine.errors import RequestError
 from cocobench_agents.engine.request import RunRequest
 from cocobench_agents.graphs import NO_MODEL, ORACLE, planner_spec
-from cocobench_agents.harness.plan import (
+from cocobench_agents.harness.episodes import (
     SHORTCUTS,
     Condition,
     PlannedEpisode,
-    RunOptions,
     parse_conditions,
     plan_episodes,
     planner_conditions,
@@ -44,7 +43,7 @@ class ResolvedRun:
     conditions: list[Condition]
     planner_arms: list[str]
     suites: list[PromptSuite]
-    options: RunOptions
+    arms: dict[str, str]  # prompt-suite arms (label → suite spec); none for one suite
     episodes: list[PlannedEpisode]
 
     @property
@@ -64,7 +63,7 @@ class ResolvedRun:
         episodes from it, and a resume checks that the sources still select the same)."""
         return {"task_ids": [t.task_id for t in self.tasks], "models": self.models,
                 "conditions": [c.name for c in self.conditions],
-                **({"arms": list(self.options.arms)} if self.options.arms else {}),
+                **({"arms": list(self.arms)} if self.arms else {}),
                 **({"planner_arms": self.planner_arms} if self.planner_arms else {})}
 
 
@@ -108,11 +107,12 @@ def resolve(request: RunRequest, notify: Callable[[str], None]) -> ResolvedRun:
     tasks = select_tasks(tasks, selection.eval_set, only_cell=selection.only_cell,
                          only_family=selection.only_family, only_dim=selection.only_dim,
                          task_ids=selection.task_ids, limit=selection.limit)
-    options = RunOptions(backend=request.backend, prompt_suite=suites[0].spec,
-                         arms=suite_arms(suites), max_steps=request.max_steps,
-                         stable_ids=request.stable_ids, agent_models=request.agent_models)
-    episodes = plan_episodes(tasks, models, conditions, request.epochs, options)
-    return ResolvedRun(request, tasks, models, conditions, planner_arms, suites, options,
+    arms = suite_arms(suites)
+    episodes = plan_episodes(tasks, models, conditions, request.epochs, arms=arms,
+                             agent_models=request.agent_models, backend=request.backend,
+                             prompt_suite=suites[0].spec, max_steps=request.max_steps,
+                             stable_ids=request.stable_ids)
+    return ResolvedRun(request, tasks, models, conditions, planner_arms, suites, arms,
                        episodes)
 
 

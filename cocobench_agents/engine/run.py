@@ -36,11 +36,11 @@ from cocobench_agents.engine.resume import (
 )
 from cocobench_agents.episode_runner import has_human_seat
 from cocobench_agents.graphs import NO_MODEL
+from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.errors import FatalModelError, WorkerError, WorkersLost
 from cocobench_agents.harness.human_log import LoggedDesk
 from cocobench_agents.harness.limits import SpendLimit
 from cocobench_agents.harness.pending import pending_episodes
-from cocobench_agents.harness.plan import PlannedEpisode
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.human import SeatDesk
 from cocobench_agents.models.settings import unset_sampling_notice
@@ -141,7 +141,7 @@ def _checked(request: RunRequest, record: dict[str, Any] | None, folder: RunFold
 def _check_suites_unchanged(resolved: ResolvedRun, record: dict[str, Any],
                             unchanged: Callable[..., None]) -> None:
     """Refuse a resumed run's prompt suite whose files changed since it was recorded."""
-    if not resolved.options.arms:
+    if not resolved.arms:
         unchanged(resolved.suites[0], record.get("prompt_suite") or {})
         return
     recorded = {r.get("arm"): r for r in record.get("prompt_suites") or []
@@ -198,23 +198,16 @@ def _execute(todo: list, folder: RunFolder, pool: ModelPool, request: RunRequest
     `RunStopped`."""
     recorded = 0
 
-    def on_result(record: dict[str, Any]) -> None:
+    def on_event(event: events.Event) -> None:
         nonlocal recorded
-        recorded += 1
-        limit.add(record)
-        emit(events.EpisodeRecorded(record))
-
-    def on_start(key: dict[str, Any]) -> None:
-        emit(events.EpisodeStarted(key))
-
-    def on_step(key: dict[str, Any], step: dict[str, Any]) -> None:
-        emit(events.StepLanded(key, step))
+        if isinstance(event, events.EpisodeRecorded):
+            recorded += 1
+            limit.add(event.record)  # before the executor asks whether to start another
+        emit(event)
 
     try:
-        execute(todo, folder, pool, request, on_result=on_result,
-                limit=limit if limit.active else None,
-                notify=lambda message: emit(events.Notice(message, warning=False)),
-                on_start=on_start, on_step=on_step)
+        execute(todo, folder, pool, request, limit=limit if limit.active else None,
+                emit=on_event)
     except RunFolderWriteError as exc:
         raise RunFolderFailed(folder.path, exc) from None
     except KeyboardInterrupt:

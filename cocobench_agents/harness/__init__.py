@@ -1,5 +1,5 @@
 """Batch runs: suite × conditions × models × epochs into a resumable run folder (its format:
-`cocobench_agents.runfolder`).
+`cocobench_agents.runfolder`), on one of the executors (`executors`).
 
 Names load on first use (PEP 562): a module that needs one name does not import the planners
 and LangGraph.
@@ -10,13 +10,15 @@ from __future__ import annotations
 from cocobench_agents.lazy import lazy_getattr
 
 _EXPORTS = {
-    "execute": ".batch", "execute_and_close": ".batch", "infra_error_record": ".batch",
+    "Bounds": ".executor", "Executor": ".executor", "executor_named": ".executors",
+    "ExecutionSettings": ".execution_settings",
+    "InProcess": ".batch", "infra_error_record": ".batch", "run_batch": ".batch",
     "run_one": ".batch",
-    "Condition": ".plan", "PlanError": ".plan", "PlannedEpisode": ".plan",
-    "RunOptions": ".plan", "parse_conditions": ".plan", "plan_episodes": ".plan",
+    "Condition": ".episodes", "PlanError": ".episodes", "PlannedEpisode": ".episodes",
+    "parse_conditions": ".episodes", "plan_episodes": ".episodes",
     "pending_episodes": ".pending",
-    "WorkerError": ".workers", "available_cores": ".workers", "execute_in_workers": ".workers",
-    "RayOptions": ".ray_executor", "execute_on_ray": ".ray_executor",
+    "WorkerError": ".workers", "WorkerProcesses": ".workers", "available_cores": ".workers",
+    "RayExecutor": ".ray_executor",
 }
 __all__ = sorted(_EXPORTS)
 

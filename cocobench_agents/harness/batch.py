@@ -1,8 +1,10 @@
-"""Running a plan into a run folder with bounded concurrency.
+"""The in-process executor: a run's episodes as asyncio tasks of this process.
 
-Episodes run as asyncio tasks: model calls are the bottleneck and overlap, while simulator
-steps run on the event loop between them. Results for a deterministic model do not depend on
-`jobs` (each episode owns its world, clients and random streams).
+Model calls are the bottleneck and overlap, while simulator steps run on the event loop
+between them. Results for a deterministic model do not depend on `jobs` (each episode owns
+its world, clients and random streams). A run a person plays runs here, one episode at a
+time (one person answers one decision at a time), those with a human seat first; the other
+executors run each episode with `run_one` too.
 """
 
 from __future__ import annotations
@@ -15,19 +17,27 @@ from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
 from benchmark_adapter.metrics import unrun_result
-from cocobench_agents.episode_runner import ClientFactory, run_episode
+from cocobench_agents.episode_runner import ClientFactory, has_human_seat, run_episode
 from cocobench_agents.graphs.node_errors import PlannerNodeError
+from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.errors import FatalModelError, fatal_model_error
-from cocobench_agents.harness.limits import SpendLimit
-from cocobench_agents.harness.plan import PlannedEpisode
+from cocobench_agents.harness.execution_settings import ExecutionSettings
+from cocobench_agents.harness.executor import (
+    NO_BOUNDS,
+    Bounds,
+    EpisodeRecorded,
+    EpisodeStarted,
+    ExecutorEventHandler,
+    ExecutorStarted,
+    ExecutorStopped,
+    StepLanded,
+    ignore,
+)
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.secrets import redact
 from cocobench_agents.runfolder.folder import RunFolder
 from cocobench_agents.runfolder.result_line import infra_error_line
 
-ResultCallback = Callable[[dict[str, Any]], None]
-# The episode's key and its seats' `models`, as in result lines.
-StartCallback = Callable[[dict[str, Any]], None]
 StepCallback = Callable[[dict[str, Any], dict[str, Any]], None]  # key, landed step
 
 
@@ -40,61 +50,78 @@ class Halt(Protocol):
     def set(self) -> None: ...
 
 
-async def execute(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ClientFactory,
-                  *, jobs: int = 1, on_result: ResultCallback | None = None,
-                  store_result: ResultCallback | None = None,
-                  limit: SpendLimit | None = None,
-                  episode_timeout_s: float | None = None,
-                  on_start: StartCallback | None = None,
-                  on_step: StepCallback | None = None,
-                  halt: Halt | None = None) -> None:
-    """Run every episode, at most `jobs` at a time, longest step budget first, storing each
-    result as it finishes (appended to the folder's results, unless `store_result` takes it),
-    then `on_result`. Once `limit` is reached, or `halt` is set, no further episode starts.
-    `on_start` and `on_step` hear of each episode's start and landed steps.
+class InProcess:
+    """The `Executor` that runs episodes in this process, `settings.jobs` at a time."""
+
+    def check(self, settings: ExecutionSettings) -> None:
+        """Nothing to check: this process runs them."""
+
+    def run(self, episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ModelPool,
+            settings: ExecutionSettings, *, bounds: Bounds = NO_BOUNDS,
+            on_event: ExecutorEventHandler = ignore) -> None:
+        """Run every episode, those with a human seat first, then close the pool: its
+        kept-alive connections belong to this run's event loop."""
+        on_event(ExecutorStarted((settings.jobs,)))
+        try:
+            asyncio.run(_run_and_close(episodes, folder, pool, jobs=settings.jobs,
+                                       bounds=bounds, on_event=on_event))
+        finally:
+            on_event(ExecutorStopped())
+
+
+async def _run_and_close(episodes: Sequence[PlannedEpisode], folder: RunFolder,
+                         pool: ModelPool, **options: Any) -> None:
+    try:
+        await run_batch(episodes, folder, pool, **options)
+    finally:
+        await pool.aclose()
+
+
+async def run_batch(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ClientFactory,
+                    *, jobs: int = 1, bounds: Bounds = NO_BOUNDS,
+                    on_event: ExecutorEventHandler = ignore, halt: Halt | None = None) -> None:
+    """Run every episode, at most `jobs` at a time, those with a human seat first (the
+    person is there when the run starts), then longest step budget first, appending each
+    result as it finishes and telling `on_event` of its start, steps and result line. Once
+    the spend limit is reached, or `halt` is set, no further episode starts.
 
     An episode that met a fatal model error (`fatal_model_error`: the key refused, no such
     model) sets `halt`: every later episode would fail the same way. Once the episodes in
     flight are stored, that `FatalModelError` is raised."""
     gate = asyncio.Semaphore(max(1, jobs))
-    store = folder.append_result if store_result is None else store_result
     halt = threading.Event() if halt is None else halt
+    limit = bounds.spend
     fatal: list[FatalModelError] = []
 
-    async def one(planned: PlannedEpisode) -> None:
+    def on_step(key: dict[str, Any], step: dict[str, Any]) -> None:
+        on_event(StepLanded(key, step))
+
+    async def one(planned: PlannedEpisode, human: bool) -> None:
         async with gate:
             # Left pending: --resume (with a higher limit, or once the key is fixed) runs it.
             if halt.is_set() or (limit is not None and limit.reached()):
                 return
-            if on_start is not None:
-                on_start(start_key(planned))
-            record, document = await run_one(planned, folder, pool,
-                                             timeout_s=episode_timeout_s, on_step=on_step)
-        store(record)
-        if on_result is not None:
-            on_result(record)
+            on_event(EpisodeStarted(start_key(planned)))
+            timeout = bounds.human_timeout_s if human else bounds.episode_timeout_s
+            record, document = await run_one(planned, folder, pool, timeout_s=timeout,
+                                             on_step=None if on_event is ignore else on_step)
+        folder.append_result(record)
+        on_event(EpisodeRecorded(record))
         error = fatal_model_error(record, document)
         if error is not None:
             fatal.append(error)
             halt.set()
 
+    humans = {id(p): has_human_seat(p.spec) for p in episodes}
+    ordered = sorted(longest_first(episodes), key=lambda p: not humans[id(p)])
     # Tasks take the gate in creation order.
-    await asyncio.gather(*(one(p) for p in longest_first(episodes)))
+    await asyncio.gather(*(one(p, humans[id(p)]) for p in ordered))
     if fatal:
         raise fatal[0]
 
 
-async def execute_and_close(episodes: Sequence[PlannedEpisode], folder: RunFolder,
-                            pool: ModelPool, **options: Any) -> None:
-    """`execute`, then close the pool: its kept-alive connections belong to this event loop."""
-    try:
-        await execute(episodes, folder, pool, **options)
-    finally:
-        await pool.aclose()
-
-
 def start_key(planned: PlannedEpisode) -> dict[str, Any]:
-    """What `on_start` hears of an episode: its key and its seats' `models`."""
+    """What `EpisodeStarted` tells of an episode: its key and its seats' `models`."""
     return {**planned.key.as_dict(), "models": planned.spec.identifiers()["models"]}
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from cocobench_agents.harness.plan import PlannedEpisode
+from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.runfolder.folder import RunFolder
 from cocobench_agents.runfolder.infra import is_infra_failure
 

@@ -21,7 +21,7 @@ from typing import Any
 from benchmark_adapter.sim.backends import check_backend
 from benchmark_adapter.vocabulary import EMBEDDED
 from cocobench_agents.harness.batch import run_one
-from cocobench_agents.harness.plan import PlannedEpisode
+from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
 from cocobench_agents.harness.runaway import rss_bytes
 from cocobench_agents.models import ModelPool, ModelSettings

@@ -33,24 +33,21 @@ from pathlib import Path
 from typing import Any
 
 from cocobench_agents.graphs import compiled_graph
-from cocobench_agents.harness.batch import (
-    ResultCallback,
-    StartCallback,
-    infra_error_record,
-    longest_first,
-    run_one,
-    start_key,
-)
+from cocobench_agents.harness.batch import infra_error_record, longest_first, run_one, start_key
+from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.errors import FatalModelError, WorkerError, fatal_model_error
-from cocobench_agents.harness.limits import SpendLimit
-from cocobench_agents.harness.plan import PlannedEpisode
-from cocobench_agents.harness.runaway import (
-    DEFAULT_LIMITS,
-    MEMORY,
-    RunawayLimits,
-    machine_memory_low,
-    rss_bytes,
+from cocobench_agents.harness.execution_settings import ExecutionSettings
+from cocobench_agents.harness.executor import (
+    NO_BOUNDS,
+    Bounds,
+    EpisodeRecorded,
+    EpisodeStarted,
+    ExecutorEventHandler,
+    ExecutorStarted,
+    ExecutorStopped,
+    ignore,
 )
+from cocobench_agents.harness.runaway import MEMORY, machine_memory_low, rss_bytes
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.runfolder.errors import RunFolderError, RunFolderWriteError
 from cocobench_agents.runfolder.folder import RunFolder
@@ -73,29 +70,37 @@ def share(total: int, index: int, parts: int) -> int:
     return max(1, total // parts + (1 if index < total % parts else 0))
 
 
-def execute_in_workers(episodes: Sequence[PlannedEpisode], folder: RunFolder,
-                       settings: ModelSettings, *, jobs: int, workers: int = 1,
-                       on_result: ResultCallback | None = None,
-                       on_start: StartCallback | None = None,
-                       limit: SpendLimit | None = None,
-                       episode_timeout_s: float | None = None,
-                       runaway: RunawayLimits = DEFAULT_LIMITS) -> None:
-    """Run every episode in `workers` processes sharing `jobs` (and each model's
-    `max_concurrency`); append each result as it arrives, then `on_result` (`on_start`: an
-    episode was started, its key). Once `limit` is reached no further episode starts; an
-    episode past `episode_timeout_s` ends as an infrastructure error, and one that runs away
-    (`runaway`) as one naming the cause. Raises the first `FatalModelError` a worker met once
-    the episodes in flight are recorded, a run-folder error at once, and `WorkerError` when
-    workers keep dying with nothing in flight."""
-    if not episodes:
-        return
-    count = max(1, min(workers, jobs, len(episodes)))
-    _warm_up(episodes)
-    supervisor = _Supervisor(longest_first(episodes), folder, settings,
-                             capacities=[share(jobs, i, count) for i in range(count)],
-                             on_result=on_result, on_start=on_start, limit=limit,
-                             episode_timeout_s=episode_timeout_s, runaway=runaway)
-    supervisor.run()
+class WorkerProcesses:
+    """The `Executor` of ``--executor local``: `settings.workers` processes (0: one per
+    core; None: one) sharing `settings.jobs`."""
+
+    def check(self, settings: ExecutionSettings) -> None:
+        """Nothing to check: the backend is checked with the request."""
+
+    def run(self, episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ModelPool,
+            settings: ExecutionSettings, *, bounds: Bounds = NO_BOUNDS,
+            on_event: ExecutorEventHandler = ignore) -> None:
+        """Run every episode in worker processes that call models as `pool.settings` say
+        (sharing each model's `max_concurrency`); append each result as it arrives. Once
+        the spend limit is reached no further episode starts; an episode past its timeout
+        ends as an infrastructure error, and one that runs away (`bounds.runaway`) as one
+        naming the cause. Raises the first `FatalModelError` a worker met once the episodes
+        in flight are recorded, a run-folder error at once, and `WorkerError` when workers
+        keep dying with nothing in flight."""
+        workers = 1 if settings.workers is None else settings.workers or available_cores()
+        if not episodes:
+            return
+        jobs = settings.jobs
+        count = max(1, min(workers, jobs, len(episodes)))
+        _warm_up(episodes)
+        capacities = [share(jobs, i, count) for i in range(count)]
+        supervisor = _Supervisor(longest_first(episodes), folder, pool.settings,
+                                 capacities=capacities, bounds=bounds, on_event=on_event)
+        on_event(ExecutorStarted(tuple(capacities)))
+        try:
+            supervisor.run()
+        finally:
+            on_event(ExecutorStopped())
 
 
 @dataclass(eq=False)
@@ -119,14 +124,12 @@ class _Supervisor:
     the single writer of the result lines."""
 
     def __init__(self, episodes: list[PlannedEpisode], folder: RunFolder,
-                 settings: ModelSettings, *, capacities: list[int],
-                 on_result: ResultCallback | None, on_start: StartCallback | None,
-                 limit: SpendLimit | None, episode_timeout_s: float | None,
-                 runaway: RunawayLimits) -> None:
+                 settings: ModelSettings, *, capacities: list[int], bounds: Bounds,
+                 on_event: ExecutorEventHandler) -> None:
         self.episodes, self.folder, self.settings = episodes, folder, settings
-        self.capacities, self.runaway = capacities, runaway
-        self.on_result, self.on_start, self.limit = on_result, on_start, limit
-        self.episode_timeout_s = episode_timeout_s
+        self.capacities, self.runaway = capacities, bounds.runaway
+        self.on_event, self.limit = on_event, bounds.spend
+        self.episode_timeout_s = bounds.episode_timeout_s
         self.context = _context()
         self.queue: deque[tuple[int, bool]] = deque((i, False) for i in range(len(episodes)))
         self.workers: list[_Worker] = []
@@ -135,14 +138,14 @@ class _Supervisor:
         self.idle_deaths = 0
         self.launched = 0
         self.next_watch = 0.0
-        self.writer = _ResultWriter(folder, on_result)
+        self.writer = _ResultWriter(folder, on_event)
 
     def run(self) -> None:
         try:
             for capacity in self.capacities:
                 self._launch(capacity)
             while self.queue or any(w.in_flight for w in self.workers):
-                if self.limit is not None:  # it counts what `on_result` was told: tell all
+                if self.limit is not None:  # it counts what `on_event` was told: tell all
                     self.writer.drain()
                 if self.fatal is not None or (self.limit is not None and self.limit.reached()):
                     self.queue.clear()  # left pending: --resume runs them
@@ -222,8 +225,8 @@ class _Supervisor:
 
     def _handle(self, worker: _Worker, message: tuple) -> None:
         kind = message[0]
-        if kind == "started" and self.on_start is not None:
-            self.on_start(start_key(self.episodes[message[1]]))
+        if kind == "started":
+            self.on_event(EpisodeStarted(start_key(self.episodes[message[1]])))
         elif kind == "done":
             _, index, record, fatal = message
             self._record(worker, index, record)
@@ -297,12 +300,12 @@ class _Supervisor:
 class _ResultWriter:
     """Appends result lines on a thread of its own, all that arrived while the last batch
     synced with one fsync, while the supervisor goes on handing out episodes; tells
-    `on_result` of each line once it is written, on the supervisor's thread. (An fsync per
+    `on_event` of each line once it is written, on the supervisor's thread. (An fsync per
     line in the supervisor was the bottleneck of 16 workers: 2,691 fsyncs at 5.8 ms each
     here, with every worker waiting for its next episode meanwhile.)"""
 
-    def __init__(self, folder: RunFolder, on_result: ResultCallback | None) -> None:
-        self.folder, self.on_result = folder, on_result
+    def __init__(self, folder: RunFolder, on_event: ExecutorEventHandler) -> None:
+        self.folder, self.on_event = folder, on_event
         self.thread = ThreadPoolExecutor(1, thread_name_prefix="cocobench-results")
         self.waiting: list[dict[str, Any]] = []
         self.writing: tuple[Future[None], list[dict[str, Any]]] | None = None
@@ -322,9 +325,8 @@ class _ResultWriter:
             except RunFolderWriteError:
                 self.failed = True
                 raise
-            if self.on_result is not None:
-                for record in records:
-                    self.on_result(record)
+            for record in records:
+                self.on_event(EpisodeRecorded(record))
         if self.writing is None and self.waiting:
             records, self.waiting = self.waiting, []
             self.writing = self.thread.submit(self.folder.append_results, records), records

@@ -5,7 +5,6 @@ the configs and from prompts rendered the way `cocobench prompts show` renders t
 
 from __future__ import annotations
 
-import asyncio
 import json
 import textwrap
 import time
@@ -21,12 +20,12 @@ from cocobench_agents.engine.estimate import estimate
 from cocobench_agents.engine.first_prompts import first_round_requests
 from cocobench_agents.harness import (
     Condition,
-    RunOptions,
-    execute_and_close,
+    ExecutionSettings,
+    InProcess,
     parse_conditions,
     plan_episodes,
 )
-from cocobench_agents.harness.plan import planner_conditions, suite_arms
+from cocobench_agents.harness.episodes import planner_conditions, suite_arms
 from cocobench_agents.models import (
     ModelPool,
     ModelRequest,
@@ -56,7 +55,7 @@ ORACLE = Condition("oracle", "image")
 
 def plan(models: list[str], conditions: list[Condition], tasks: list[TaskConfig] = DEMO,
          **options) -> list:
-    return plan_episodes(list(tasks), models, conditions, 1, RunOptions(**options))
+    return plan_episodes(list(tasks), models, conditions, 1, **options)
 
 
 def first_prompt(config: TaskConfig, *, agent: str | None = None, obs: str = "image",
@@ -290,7 +289,7 @@ def test_to_json_is_exactly_the_documented_object():
 
 def test_every_episode_has_its_first_prompt_tokens_and_a_row_sums_them():
     conditions = [C0_BLIND, D1_BLIND, ORACLE]
-    episodes = plan_episodes(list(DEMO), ["greedy"], conditions, 2, RunOptions())
+    episodes = plan_episodes(list(DEMO), ["greedy"], conditions, 2)
     result = estimate(episodes, ModelSettings())
     assert len(result.episodes) == len(conditions) * len(DEMO) * 2
     for r in result.rows:
@@ -348,7 +347,7 @@ def test_a_run_sends_the_estimated_first_round_and_no_more_calls(tmp_path, condi
             assert server.count == 0  # the estimate called no model
             folder = RunFolder(tmp_path / f"run{i}")
             folder.create({"name": "estimate"})
-            asyncio.run(execute_and_close([planned], folder, ModelPool(settings), jobs=1))
+            InProcess().run([planned], folder, ModelPool(settings), ExecutionSettings(jobs=1))
             assert 0 < server.count <= estimated.max_calls
             agents = planned.spec.config.agent_count
             first_round = {"centralized": 1, "decentralized-broadcast": agents,

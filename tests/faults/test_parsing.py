@@ -10,7 +10,12 @@ import pytest
 
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
-from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
+from cocobench_agents.harness import (
+    Condition,
+    ExecutionSettings,
+    InProcess,
+    plan_episodes,
+)
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.prompts import parse_message, parse_reply
 from cocobench_agents.runfolder import RunFolder
@@ -55,10 +60,10 @@ def test_a_huge_id_in_a_run_is_the_models_failure_not_an_infra_error(tmp_path) -
     script.write_text(json.dumps([f"REASON: all in\nACTION: {digits}"]), encoding="utf-8")
     config = next(c for c in load_tasks("demo") if c.cell == "G_D1")
     episodes = plan_episodes([config], [f"scripted:{script}"],
-                             [Condition("centralized", "blind")], 1, RunOptions())
+                             [Condition("centralized", "blind")], 1)
     folder = RunFolder(tmp_path / "run")
     folder.create({"name": "huge-id"})
-    asyncio.run(execute_and_close(episodes, folder, ModelPool(ModelSettings()), jobs=1))
+    InProcess().run(episodes, folder, ModelPool(ModelSettings()), ExecutionSettings(jobs=1))
     [result] = folder.results()
     assert "infra_error" not in result
     assert result["terminal_reason"] == "invalid_action_id"

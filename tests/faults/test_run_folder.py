@@ -3,17 +3,19 @@
 
 from __future__ import annotations
 
-import asyncio
 from pathlib import Path
 
 import pytest
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
+from cocobench_agents.harness import (
+    Condition,
+    ExecutionSettings,
+    InProcess,
+    plan_episodes,
+)
 from cocobench_agents.models import ModelPool, ModelSettings
-from cocobench_agents.runfolder import RunFolder
-from cocobench_agents.runfolder.episode_key import EpisodeKey
-from cocobench_agents.runfolder.errors import RunFolderError
+from cocobench_agents.runfolder import EpisodeKey, RunFolder, RunFolderError
 
 
 def files_under(folder: Path) -> set[Path]:
@@ -48,10 +50,9 @@ def test_an_escaping_episode_stops_the_run_and_writes_nothing_outside(tmp_path: 
     """A config built in Python skips the load-time checks; its trajectory is still refused."""
     config = next(c for c in load_tasks("demo") if c.cell == "G_D1")
     evil = config.model_copy(update={"task_id": "../../../../escaped"})
-    episodes = plan_episodes([evil], ["greedy"], [Condition("centralized", "blind")], 1,
-                             RunOptions())
+    episodes = plan_episodes([evil], ["greedy"], [Condition("centralized", "blind")], 1)
     folder = RunFolder(tmp_path / "out" / "run")
     folder.create({"name": "t"})
     with pytest.raises(RunFolderError, match="not inside the run folder"):
-        asyncio.run(execute_and_close(episodes, folder, ModelPool(ModelSettings()), jobs=1))
+        InProcess().run(episodes, folder, ModelPool(ModelSettings()), ExecutionSettings(jobs=1))
     assert all(folder.path in p.parents for p in files_under(tmp_path))

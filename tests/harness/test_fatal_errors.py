@@ -5,7 +5,6 @@ their retries and never stop a run."""
 
 from __future__ import annotations
 
-import asyncio
 import pickle
 
 import pytest
@@ -13,9 +12,9 @@ import pytest
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
-    RunOptions,
-    execute_and_close,
-    execute_in_workers,
+    ExecutionSettings,
+    InProcess,
+    WorkerProcesses,
     plan_episodes,
 )
 from cocobench_agents.harness.errors import (
@@ -45,7 +44,7 @@ def server():
 
 def plan():
     return plan_episodes(load_tasks("cocobench-240")[:EPISODES], [MODEL],
-                         [Condition("centralized", "blind")], 1, RunOptions(max_steps=3))
+                         [Condition("centralized", "blind")], 1, max_steps=3)
 
 
 def settings(server: FakeOpenAI) -> ModelSettings:
@@ -60,11 +59,12 @@ def new_folder(path) -> RunFolder:
 
 
 def run_locally(folder: RunFolder, server: FakeOpenAI) -> None:
-    asyncio.run(execute_and_close(plan(), folder, ModelPool(settings(server)), jobs=JOBS))
+    InProcess().run(plan(), folder, ModelPool(settings(server)), ExecutionSettings(jobs=JOBS))
 
 
 def run_in_workers(folder: RunFolder, server: FakeOpenAI) -> None:
-    execute_in_workers(plan(), folder, settings(server), jobs=JOBS, workers=2)
+    WorkerProcesses().run(plan(), folder, ModelPool(settings(server)),
+                          ExecutionSettings(jobs=JOBS, workers=2))
 
 
 @pytest.mark.parametrize("execute", [run_locally, run_in_workers], ids=["asyncio", "workers"])

@@ -4,15 +4,14 @@ many episodes each node ran and how many of them were re-queued."""
 
 from __future__ import annotations
 
-import asyncio
 import json
 import shutil
 
 from benchmark_adapter.tasks import load_tasks
 from cocobench_agents.harness import (
     Condition,
-    RunOptions,
-    execute_and_close,
+    ExecutionSettings,
+    InProcess,
     pending_episodes,
     plan_episodes,
 )
@@ -40,10 +39,10 @@ def test_node_lines_count_episodes_and_requeues_per_node():
 
 def test_node_fields_are_valid_and_survive_resume_and_report(tmp_path):
     planned = plan_episodes(load_tasks("demo"), ["random:7"],
-                            [Condition("centralized", "blind")], 1, RunOptions())
+                            [Condition("centralized", "blind")], 1)
     local = RunFolder(tmp_path / "local")
     local.create({"name": "local"})
-    asyncio.run(execute_and_close(planned, local, ModelPool(), jobs=2))
+    InProcess().run(planned, local, ModelPool(), ExecutionSettings(jobs=2))
     shutil.copytree(local.path, tmp_path / "ray")
     ray = RunFolder(tmp_path / "ray")
     lines = [json.loads(line) for line in (ray.path / "results.jsonl").read_text().splitlines()]

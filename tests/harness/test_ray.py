@@ -20,12 +20,14 @@ from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import load_task, load_tasks
 from cocobench_agents.harness import (
     Condition,
-    RunOptions,
+    ExecutionSettings,
+    InProcess,
     WorkerError,
-    execute_and_close,
     plan_episodes,
 )
-from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray, fleet_shape
+from cocobench_agents.harness.executor import ExecutorStarted
+from cocobench_agents.harness.ray_executor import RayExecutor
+from cocobench_agents.harness.ray_fleet import fleet_shape
 from cocobench_agents.harness.ray_limit import ConcurrencyLimiter
 from cocobench_agents.harness.ray_local import children_of
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
@@ -101,7 +103,7 @@ def _alive(pid: int) -> bool:
 def demo_plan(**options):
     return plan_episodes(load_tasks("demo"), ["random:7"],
                          [Condition("centralized", "blind"), Condition("decentralized", "blind")],
-                         2, RunOptions(**options))
+                         2, **options)
 
 
 RAY_ONLY = ("elapsed_s", "node", "requeued")  # where and when, not what, an episode ran
@@ -126,9 +128,14 @@ def new_folder(path: Path) -> RunFolder:
     return folder
 
 
+def started(shapes: list[ExecutorStarted]):
+    """A handler that keeps what the executor says of its fleet."""
+    return lambda event: shapes.append(event) if isinstance(event, ExecutorStarted) else None
+
+
 def local_run(planned, path: Path, settings: ModelSettings | None = None) -> RunFolder:
     folder = new_folder(path)
-    asyncio.run(execute_and_close(planned, folder, ModelPool(settings), jobs=4))
+    InProcess().run(planned, folder, ModelPool(settings), ExecutionSettings(jobs=4))
     return folder
 
 
@@ -139,8 +146,9 @@ def test_a_ray_run_equals_a_local_run(ray_cluster, tmp_path):
     planned = demo_plan()
     shapes = []
     folder = new_folder(tmp_path / "ray")
-    execute_on_ray(planned, folder, ModelSettings(), jobs=4, options=RayOptions(workers=2),
-                   on_start=shapes.append)
+    execution = ExecutionSettings(jobs=4, workers=2)
+    RayExecutor().run(planned, folder, ModelPool(ModelSettings()), execution,
+                      on_event=started(shapes))
     assert [len(s.capacities) for s in shapes] == [2]
     assert episodes(folder) == episodes(local_run(planned, tmp_path / "local"))
     nodes = {record["node"] for record in folder.results()}
@@ -207,11 +215,12 @@ def test_the_limit_on_model_calls_holds_across_workers(ray_cluster, counting_ser
     # calls through, 4 in all; the run's limiter lets 2 through across both.
     planned = plan_episodes(load_tasks("demo")[:4], ["openai/m"],
                             [Condition("centralized", "blind"),
-                             Condition("decentralized", "blind")], 1, RunOptions(max_steps=3))
+                             Condition("decentralized", "blind")], 1, max_steps=3)
     settings = ModelSettings(api_base=counting_server.url, transport="http", max_concurrency=2,
                              timeout_s=10)
     folder = new_folder(tmp_path / "limited")
-    execute_on_ray(planned, folder, settings, jobs=8, options=RayOptions(workers=2))
+    execution = ExecutionSettings(jobs=8, workers=2)
+    RayExecutor().run(planned, folder, ModelPool(settings), execution)
     records = list(folder.results())
     assert len(records) == len(planned) and not any(r.get("infra_error") for r in records)
     assert counting_server.calls >= len(planned)
@@ -262,7 +271,7 @@ def test_the_fleet_fits_the_cluster():
 def thor_plan():
     return plan_episodes([load_task(p) for p in THOR_TASKS], ["random:3"],
                          [Condition("centralized", "blind")], 1,
-                         RunOptions(backend="ai2thor", max_steps=6))
+                         backend="ai2thor", max_steps=6)
 
 
 @pytest.fixture(scope="module")
@@ -287,10 +296,11 @@ def thor_reference(control, tmp_path_factory) -> dict:
 def test_ai2thor_workers_equal_a_local_run(ray_cluster, thor_reference, tmp_path):
     shapes = []
     folder = new_folder(tmp_path / "thor")
-    execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=8,
-                   options=RayOptions(thor_gpus_per_worker=0.25), on_start=shapes.append)
+    execution = ExecutionSettings(jobs=8, thor_gpus_per_worker=0.25)
+    RayExecutor().run(thor_plan(), folder, ModelPool(ModelSettings()), execution,
+                      on_event=started(shapes))
     # One logical GPU at 0.25 each: 4 workers would fit, the 2 CPUs allow 2.
-    assert shapes[0].capacities == (1, 1) and shapes[0].num_gpus == 0.25
+    assert shapes[0].capacities == (1, 1) and "0.25 GPU each" in shapes[0].where
     assert episodes(folder) == thor_reference
 
 
@@ -304,8 +314,8 @@ def test_a_dead_unity_or_worker_costs_one_rerun_and_a_second_death_an_error(
                                                    always: "always"}))
     folder = new_folder(tmp_path / "dying")
     try:
-        execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=4,
-                       options=RayOptions(workers=2, thor_gpus_per_worker=0.5))
+        execution = ExecutionSettings(jobs=4, workers=2, thor_gpus_per_worker=0.5)
+        RayExecutor().run(thor_plan(), folder, ModelPool(ModelSettings()), execution)
     finally:
         (control / "plan.json").unlink()
     assert {p.name for p in control.iterdir()} >= {f"{once}.once", f"{exits}.exit"}
@@ -327,8 +337,8 @@ def test_workers_on_a_node_without_a_renderer_stop_the_run_before_any_episode(
     folder = new_folder(tmp_path / "no-gpu")
     try:
         with pytest.raises(WorkerError, match=r"could not start: .*ThorUnavailable"):
-            execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=2,
-                           options=RayOptions(workers=1, thor_gpus_per_worker=0.5))
+            execution = ExecutionSettings(jobs=2, workers=1, thor_gpus_per_worker=0.5)
+            RayExecutor().run(thor_plan(), folder, ModelPool(ModelSettings()), execution)
     finally:
         (control / "no-renderer").unlink()
     assert list(folder.results()) == []

@@ -11,7 +11,6 @@ files), and every run is bounded (`within`)."""
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import json
 import os
@@ -28,9 +27,15 @@ import pytest
 from benchmark_adapter.sim import backends
 from benchmark_adapter.sim.thor.pool import ControllerPool
 from benchmark_adapter.tasks import load_task, load_tasks
-from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
+from cocobench_agents.harness import (
+    Condition,
+    ExecutionSettings,
+    InProcess,
+    plan_episodes,
+)
 from cocobench_agents.harness.errors import FatalModelError, WorkerEnvironmentError, WorkersLost
-from cocobench_agents.harness.ray_executor import RayOptions, execute_on_ray
+from cocobench_agents.harness.executor import Bounds, on_recorded
+from cocobench_agents.harness.ray_executor import RayExecutor
 from cocobench_agents.harness.ray_local import driver_token
 from cocobench_agents.harness.ray_session import reload_ray_config
 from cocobench_agents.models import ModelPool, ModelSettings
@@ -123,7 +128,7 @@ def settings(server: FakeOpenAI) -> ModelSettings:
 
 def plan(count: int = 16):
     return plan_episodes(load_tasks("cocobench-240")[:count], ["openai/fake"],
-                         [Condition("centralized", "blind")], 1, RunOptions(max_steps=4))
+                         [Condition("centralized", "blind")], 1, max_steps=4)
 
 
 def new_folder(path: Path) -> RunFolder:
@@ -170,7 +175,7 @@ def reference(server, tmp_path_factory) -> dict[tuple, tuple]:
     """The plan run locally, in this process."""
     server.program(default=ok(delay_s=DELAY_S))
     folder = new_folder(tmp_path_factory.mktemp("local") / "run")
-    asyncio.run(execute_and_close(plan(), folder, ModelPool(settings(server)), jobs=4))
+    InProcess().run(plan(), folder, ModelPool(settings(server)), ExecutionSettings(jobs=4))
     return comparable(folder)
 
 
@@ -192,8 +197,9 @@ def test_a_node_lost_mid_run_costs_its_episodes_one_rerun_elsewhere(
                 killed.append(time.monotonic())
 
         with within(BOUND_S):
-            execute_on_ray(plan(), folder, settings(server), jobs=4,
-                           options=RayOptions(address=cluster.address), on_result=on_result)
+            execution = ExecutionSettings(executor="ray", jobs=4, ray_address=cluster.address)
+            RayExecutor().run(plan(), folder, ModelPool(settings(server)), execution,
+                              on_event=on_recorded(on_result))
     assert killed
     got = comparable(folder)  # each episode once, as a local run records it
     assert got == reference, differences({str(k): v for k, v in got.items()},
@@ -229,9 +235,10 @@ def test_a_node_that_joins_mid_run_gets_episodes(cluster, server, tmp_path):
                 enough.set()
 
         with within(BOUND_S):
-            execute_on_ray(plan(240), folder, settings(server), jobs=4,
-                           options=RayOptions(address=cluster.address), on_result=on_result,
-                           limit=UntilTheNewNodeRanOne())  # type: ignore[arg-type]
+            execution = ExecutionSettings(executor="ray", jobs=4, ray_address=cluster.address)
+            RayExecutor().run(plan(240), folder, ModelPool(settings(server)), execution,
+                              bounds=Bounds(spend=UntilTheNewNodeRanOne()),  # type: ignore[arg-type]
+                              on_event=on_recorded(on_result))
     assert enough.is_set()
     records = list(folder.results())
     assert len({(r["task_id"], r["epoch"]) for r in records}) == len(records)
@@ -250,8 +257,8 @@ def test_a_node_without_the_runs_key_stops_the_run_before_any_episode(
             environment.delenv(KEY)  # the node is started without it (the driver has it)
             bare = nodes.enter_context(extra_node(cluster))
         with within(BOUND_S), pytest.raises(WorkerEnvironmentError) as stopped:
-            execute_on_ray(plan(), folder, settings(server), jobs=4,
-                           options=RayOptions(address=cluster.address))
+            execution = ExecutionSettings(executor="ray", jobs=4, ray_address=cluster.address)
+            RayExecutor().run(plan(), folder, ModelPool(settings(server)), execution)
     assert (stopped.value.variables, stopped.value.node) == ((KEY,), bare.node_id)
     message = str(stopped.value)
     assert KEY in message and bare.node_id in message and "docs/distributed.md" in message
@@ -273,8 +280,9 @@ def test_a_node_without_the_key_that_joins_mid_run_stops_the_dispatch(
                     joined.append(nodes.enter_context(extra_node(cluster)))
 
         with within(BOUND_S), pytest.raises(WorkerEnvironmentError) as stopped:
-            execute_on_ray(plan(240), folder, settings(server), jobs=4,
-                           options=RayOptions(address=cluster.address), on_result=on_result)
+            execution = ExecutionSettings(executor="ray", jobs=4, ray_address=cluster.address)
+            RayExecutor().run(plan(240), folder, ModelPool(settings(server)), execution,
+                              on_event=on_recorded(on_result))
     assert stopped.value.node == joined[0].node_id
     records = list(folder.results())  # what was in flight finished and is recorded
     assert 1 < len(records) < 240
@@ -300,9 +308,10 @@ def test_a_run_with_no_worker_alive_for_wait_s_stops_with_what_finished_recorded
                     cluster.remove_node(lost, allow_graceful=False)
 
             with within(BOUND_S), pytest.raises(WorkersLost) as stopped:
-                execute_on_ray(plan(), folder, settings(server), jobs=4,
-                               options=RayOptions(address=cluster.address, wait_s=3),
-                               on_result=on_result)
+                execution = ExecutionSettings(executor="ray", jobs=4, ray_address=cluster.address,
+                                              ray_wait=3)
+                RayExecutor().run(plan(), folder, ModelPool(settings(server)), execution,
+                                  on_event=on_recorded(on_result))
     finally:
         ray.shutdown()
     records = list(folder.results())
@@ -323,8 +332,8 @@ def test_a_fatal_model_error_stops_the_dispatch_on_ray(cluster, server, tmp_path
     server.program(default=error(401, "Incorrect API key provided"))
     folder = new_folder(tmp_path / "refused")
     with within(BOUND_S), pytest.raises(FatalModelError) as stopped:
-        execute_on_ray(plan(), folder, settings(server), jobs=4,
-                       options=RayOptions(address=cluster.address))
+        execution = ExecutionSettings(executor="ray", jobs=4, ray_address=cluster.address)
+        RayExecutor().run(plan(), folder, ModelPool(settings(server)), execution)
     assert (stopped.value.model, stopped.value.kind) == ("openai/fake", "auth")
     records = list(folder.results())
     assert 1 <= len(records) <= 4  # those in flight when the first one came back
@@ -336,7 +345,7 @@ def test_a_fatal_model_error_stops_the_dispatch_on_ray(cluster, server, tmp_path
 def thor_plan():
     return plan_episodes([load_task(p) for p in THOR_TASKS], ["random:3"],
                          [Condition("centralized", "blind")], 1,
-                         RunOptions(backend="ai2thor", max_steps=6))
+                         backend="ai2thor", max_steps=6)
 
 
 @pytest.fixture(scope="module")
@@ -356,7 +365,7 @@ def test_a_lost_gpu_nodes_episode_reruns_on_another(cluster, control, tmp_path):
     backends.BACKENDS["ai2thor"] = fake_thor_backend(control, pool)
     try:
         local = new_folder(tmp_path / "local")
-        asyncio.run(execute_and_close(thor_plan(), local, ModelPool(), jobs=2))
+        InProcess().run(thor_plan(), local, ModelPool(), ExecutionSettings(jobs=2))
     finally:
         backends.BACKENDS["ai2thor"] = saved
         pool.close()
@@ -383,10 +392,10 @@ def test_a_lost_gpu_nodes_episode_reruns_on_another(cluster, control, tmp_path):
         watcher.start()
         try:
             with within(BOUND_S):
-                execute_on_ray(thor_plan(), folder, ModelSettings(), jobs=2,
-                               options=RayOptions(address=cluster.address,
-                                                  thor_gpus_per_worker=1,
-                                                  runtime_env=runtime_env))
+                execution = ExecutionSettings(executor="ray", jobs=2, ray_address=cluster.address,
+                                              thor_gpus_per_worker=1)
+                thor = RayExecutor(runtime_env=runtime_env)
+                thor.run(thor_plan(), folder, ModelPool(ModelSettings()), execution)
         finally:
             watcher.join(timeout=BOUND_S)
             (control / "plan.json").unlink()

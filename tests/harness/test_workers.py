@@ -15,10 +15,16 @@ from pathlib import Path
 import pytest
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import Condition, RunOptions, execute_in_workers, plan_episodes
+from cocobench_agents.harness import (
+    Condition,
+    ExecutionSettings,
+    WorkerProcesses,
+    plan_episodes,
+)
+from cocobench_agents.harness.executor import on_recorded
 from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.harness.workers import share
-from cocobench_agents.models import ModelSettings
+from cocobench_agents.models import ModelPool
 from cocobench_agents.runfolder import RunFolder
 from tests.harness.runaway_planners import RUNAWAY_TASK, SLOW_TASK
 
@@ -28,7 +34,7 @@ PLANTED = Path(__file__).with_name("runaway_planners.py")
 def plan():
     return plan_episodes(load_tasks("demo"), ["random:7"],
                          [Condition("centralized", "blind"), Condition("decentralized", "blind")],
-                         2, RunOptions())
+                         2)
 
 
 def test_a_killed_worker_is_replaced_and_its_episodes_run_again(tmp_path):
@@ -43,8 +49,8 @@ def test_a_killed_worker_is_replaced_and_its_episodes_run_again(tmp_path):
             os.kill(victim.pid, signal.SIGKILL)
             killed.append(victim.name)
 
-    execute_in_workers(planned, folder, ModelSettings(), jobs=4, workers=2,
-                       on_result=kill_a_worker)
+    WorkerProcesses().run(planned, folder, ModelPool(), ExecutionSettings(jobs=4, workers=2),
+                          on_event=on_recorded(kill_a_worker))
     records = list(folder.results())
     keys = {(r["condition"], r["task_id"], r["epoch"]) for r in records}
     assert len(keys) == len(planned) == len(records)  # every episode once, none lost

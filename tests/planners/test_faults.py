@@ -6,14 +6,18 @@ written nowhere."""
 
 from __future__ import annotations
 
-import asyncio
 import json
 from pathlib import Path
 
 import pytest
 
 from benchmark_adapter.tasks import load_tasks
-from cocobench_agents.harness import Condition, RunOptions, execute_and_close, plan_episodes
+from cocobench_agents.harness import (
+    Condition,
+    ExecutionSettings,
+    InProcess,
+    plan_episodes,
+)
 from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
 from cocobench_agents.runfolder import RunFolder
 from tests.models.fake_openai import (
@@ -79,11 +83,10 @@ def batch(request, tmp_path: Path, monkeypatch) -> tuple[RunFolder, ByModel]:
                                  backoff_max_s=0.02, max_reply_chars=4_000,
                                  transport=request.param)
         models = [f"openai/{name}" for name in EXPECTED]
-        episodes = plan_episodes([config], models, [Condition("centralized", "blind")], 1,
-                                 RunOptions())
+        episodes = plan_episodes([config], models, [Condition("centralized", "blind")], 1)
         folder = RunFolder(tmp_path / "run")
         folder.create({"name": "faults"})
-        asyncio.run(execute_and_close(episodes, folder, ModelPool(settings), jobs=4))
+        InProcess().run(episodes, folder, ModelPool(settings), ExecutionSettings(jobs=4))
         yield folder, server
 
 

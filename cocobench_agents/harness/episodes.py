@@ -1,18 +1,19 @@
-"""What a run consists of: models × conditions × prompt-suite arms × instances × epochs,
-in a fixed order."""
+"""A run's episode list: models × conditions × prompt-suite arms × instances × epochs, in a
+fixed order, each episode a key (its folder, its result line's key) and an `EpisodeSpec`."""
 
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
 
 from benchmark_adapter.tasks import TaskConfig
-from benchmark_adapter.vocabulary import DEFAULT_BACKEND, OBSERVATION_MODES
+from benchmark_adapter.vocabulary import OBSERVATION_MODES
 from cocobench_agents.conditions import condition_name, split_condition
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import NO_MODEL, PAPER_PLANNERS, PLANNERS, find_planner, planner_spec
-from cocobench_agents.prompts import DEFAULT_SUITE, PromptSuite
+from cocobench_agents.prompts import PromptSuite
 from cocobench_agents.runfolder.episode_key import EpisodeKey, model_slug
 
 PAPER_CODES = tuple(PLANNERS[name].code for name in PAPER_PLANNERS)  # as in run_eval.sh
@@ -104,20 +105,6 @@ def _check_distinct(conditions: list[Condition]) -> None:
 
 
 @dataclass(frozen=True)
-class RunOptions:
-    """Episode options shared by the whole run."""
-
-    backend: str = DEFAULT_BACKEND
-    prompt_suite: str = DEFAULT_SUITE  # the first arm's suite, when there are arms
-    #: Prompt-suite arms (label → suite spec), crossed with models and conditions; empty for
-    #: a run of one suite (`suite_arms`).
-    arms: dict[str, str] = field(default_factory=dict)
-    max_steps: int | None = None
-    stable_ids: bool = False
-    agent_models: dict[str, str] = field(default_factory=dict)  # heterogeneous teams
-
-
-@dataclass(frozen=True)
 class PlannedEpisode:
     """One episode to run."""
 
@@ -126,23 +113,33 @@ class PlannedEpisode:
 
 
 def plan_episodes(tasks: list[TaskConfig], models: list[str], conditions: list[Condition],
-                  epochs: int, options: RunOptions) -> list[PlannedEpisode]:
+                  epochs: int, *, arms: Mapping[str, str] | None = None,
+                  agent_models: Mapping[str, str] | None = None,
+                  **shared: Any) -> list[PlannedEpisode]:
     """Every model × condition × prompt-suite arm × instance × epoch, in that nesting
-    order."""
+    order.
+
+    Each episode is an `EpisodeSpec`, the one type an episode's settings travel in from the
+    request to the runner: `shared` are its fields every episode of the run shares, given as
+    the request holds them (``backend``, ``prompt_suite``, ``max_steps``, ``stable_ids``);
+    one not given keeps `EpisodeSpec`'s default, which is the request's. `arms`: the
+    prompt-suite arms (label → suite spec; `suite_arms`), instead of ``prompt_suite``;
+    `agent_models`: the models of some agents of a decentralized team."""
     _check_distinct_folders(tasks, models)
-    arms = options.arms or {"": options.prompt_suite}
+    first = shared.pop("prompt_suite", None)
+    suites: Mapping[str, str | None] = arms or {"": first}
     out, seen = [], set()
     for model in models:
         for cond in conditions:
-            for arm, suite in arms.items():
+            for arm, suite in suites.items():
                 for config in tasks:
                     for epoch in range(epochs):
                         key = EpisodeKey(_model_label(model, cond), cond.name, config.task_id,
                                          epoch, arm)
                         if key not in seen:  # the oracle needs no model: plan it once
                             seen.add(key)
-                            out.append(PlannedEpisode(key, _spec(key, config, model, cond,
-                                                                 suite, options)))
+                            out.append(PlannedEpisode(key, _spec(
+                                key, config, model, cond, suite, agent_models or {}, shared)))
     return out
 
 
@@ -162,15 +159,15 @@ def _check_distinct_folders(tasks: list[TaskConfig], models: list[str]) -> None:
                             f"{model_slug(model)!r}: run them into separate --out folders")
 
 
-def _spec(key: EpisodeKey, config: TaskConfig, model: str, cond: Condition, suite: str,
-          options: RunOptions) -> EpisodeSpec:
+def _spec(key: EpisodeKey, config: TaskConfig, model: str, cond: Condition,
+          suite: str | None, agent_models: Mapping[str, str],
+          shared: dict[str, Any]) -> EpisodeSpec:
     models = {DEFAULT_MODEL_KEY: model}
     if planner_spec(cond.planner).decentralized:
-        models.update(options.agent_models)
+        models.update(agent_models)
+    arm = {} if suite is None else {"prompt_suite": suite}
     return EpisodeSpec(config=config, planner=cond.planner, models=models,
-                       obs_mode=cond.obs_mode, prompt_suite=suite,
-                       backend=options.backend, max_steps=options.max_steps,
-                       stable_ids=options.stable_ids, sample_index=key.epoch,
+                       obs_mode=cond.obs_mode, **arm, **shared, sample_index=key.epoch,
                        episode_key=key.folder().removeprefix("episodes/"))
 
 
