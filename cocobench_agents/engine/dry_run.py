@@ -11,6 +11,7 @@ from cocobench_agents.engine.costs import CostPlan
 from cocobench_agents.engine.estimate import estimate
 from cocobench_agents.engine.request import RunRequest
 from cocobench_agents.engine.resolve import canonical, resolve
+from cocobench_agents.runfolder.folder import RunFolder
 
 
 def plan(request: RunRequest, *, resume: bool = False) -> CostPlan:
@@ -19,10 +20,10 @@ def plan(request: RunRequest, *, resume: bool = False) -> CostPlan:
     request = canonical(request)
     resolved = resolve(request, notify=lambda message: None)
     episodes = resolved.episodes
-    if resume and (request.out / "run.json").is_file():
+    folder = RunFolder(request.out)
+    if resume and folder.record_path.is_file():
         from cocobench_agents.harness.pending import pending_episodes
-        from cocobench_agents.runfolder.folder import RunFolder
 
-        episodes = pending_episodes(episodes, RunFolder(request.out))
+        episodes = pending_episodes(episodes, folder)
     return estimate(episodes, request.model_settings,
                     max_cost_usd=request.limits.max_cost)
