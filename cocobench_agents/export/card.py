@@ -39,11 +39,10 @@ class CardFacts:
 def dataset_card(facts: CardFacts, redact: Redactor) -> str:
     """The card's Markdown, with the YAML header the Hub and `datasets.load_dataset(DIR)`
     read (one `train` split: the data file)."""
-    parts = [_header(), _summary(facts), *(_run_section(run, facts, redact)
-                                           for run in facts.runs),
+    parts = [_header(), _summary(facts), *(_run_section(run, facts) for run in facts.runs),
              _selection(facts), _columns(), _images(facts.stats), _loading(),
              f"## Licence\n\n{LICENCE_NOTE}\n"]
-    return "\n".join(parts)
+    return redact("\n".join(parts))  # the whole card, as each row: nothing escapes it
 
 
 def _header() -> str:
@@ -63,7 +62,7 @@ def _summary(facts: CardFacts) -> str:
             "score.\n")
 
 
-def _run_section(run: Run, facts: CardFacts, redact: Redactor) -> str:
+def _run_section(run: Run, facts: CardFacts) -> str:
     record = run.record
     request = record.get("request") if isinstance(record.get("request"), Mapping) else {}
     plan = record.get("plan") if isinstance(record.get("plan"), Mapping) else {}
@@ -88,7 +87,7 @@ def _run_section(run: Run, facts: CardFacts, redact: Redactor) -> str:
     wins = Counter((str(line.get("model")), str(line.get("condition")))
                    for r, line in facts.exported if r is run and line.get("task_success"))
     lines += [f"| {m} | {c} | {n} | {wins[m, c]}/{n} |" for (m, c), n in sorted(counts.items())]
-    return redact("\n".join(lines) + "\n")
+    return "\n".join(lines) + "\n"
 
 
 def _json(value: Any) -> str:

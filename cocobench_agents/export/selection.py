@@ -16,12 +16,12 @@ from cocobench_agents.export.errors import ExportError
 
 Line = Mapping[str, Any]
 
-#: Flags: an episode's outcome, read from its result line.
+#: Flags: an episode's outcome, read from its result line (whose flags are 1/0 or true/false).
 FLAGS: dict[str, Callable[[Line], bool]] = {
-    "success": lambda line: line.get("task_success") is True,
-    "failure": lambda line: line.get("task_success") is not True,
-    "legal": lambda line: line.get("legal_plan") is True,
-    "illegal": lambda line: line.get("legal_plan") is not True,
+    "success": lambda line: line.get("task_success") == 1,
+    "failure": lambda line: line.get("task_success") != 1,
+    "legal": lambda line: line.get("legal_plan") == 1,
+    "illegal": lambda line: line.get("legal_plan") != 1,
 }
 #: Field tests: the selector's name, and the result line's field it compares.
 FIELDS = {"condition": "condition", "model": "model", "arm": "arm", "task_id": "task_id",
