@@ -95,7 +95,8 @@ def _decision_columns(decision: Mapping[str, Any], index: int, prompt: str | Non
     agent = decision.get("agent")
     return {
         "decision_index": index, "step": _integer(decision.get("step_index")),
-        "seat": str(agent) if agent else CENTRALIZED_SEAT, "seat_model": _text(decision.get("model")),
+        "seat": str(agent) if agent else CENTRALIZED_SEAT,
+        "seat_model": _text(decision.get("model")),
         # The harness sends one user message holding the prompt (`models.messages`).
         "messages": None if prompt is None else [{"role": "user", "content": prompt}],
         "reply": _text(decision.get("raw_output")), "status": _text(decision.get("status")),
