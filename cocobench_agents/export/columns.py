@@ -5,8 +5,10 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-Kind = Literal["string", "int64", "float64", "bool", "messages", "image"]
+Kind = Literal["string", "int64", "float64", "bool", "messages", "frame"]
 
+#: The column of frames (a `datasets.Image`).
+IMAGE_COLUMN = "image"
 #: (name, kind, meaning): one row per model decision; the episode's columns repeat on each of
 #: its decisions.
 COLUMNS: tuple[tuple[str, Kind, str], ...] = (
@@ -36,7 +38,7 @@ COLUMNS: tuple[tuple[str, Kind, str], ...] = (
     ("message", "string", "the message the seat sent its teammates (D1; null otherwise)"),
     ("prompt_tokens", "int64", "tokens of the prompt, as the provider counted them"),
     ("completion_tokens", "int64", "tokens of the reply"),
-    ("image", "image", "the frame the run kept for the state the decision saw (null: a blind "
+    (IMAGE_COLUMN, "frame", "the frame the run kept for the state the decision saw (null: a blind "
                        "condition, or a run that kept no frames)"),
     ("episode_success", "bool", "the episode reached its goal"),
     ("episode_progress", "float64", "the fraction of goal checks passed at the end"),
@@ -59,7 +61,7 @@ def features() -> dict[str, Any]:
     image column). Lists in the `[feature]` form every `datasets` version reads."""
     out: dict[str, Any] = {}
     for name, kind, _ in COLUMNS:
-        if kind == "image":
+        if kind == "frame":
             out[name] = {"_type": "Image"}
         elif kind == "messages":
             out[name] = [{"role": _value("string"), "content": _value("string")}]
@@ -81,6 +83,6 @@ def arrow_schema() -> Any:
     text = pa.string()
     types = {"string": text, "int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(),
              "messages": pa.list_(pa.struct([("role", text), ("content", text)])),
-             "image": pa.struct([("bytes", pa.binary()), ("path", text)])}
+             "frame": pa.struct([("bytes", pa.binary()), ("path", text)])}
     metadata = {"huggingface": json.dumps({"info": {"features": features()}})}
     return pa.schema([(name, types[kind]) for name, kind, _ in COLUMNS], metadata=metadata)

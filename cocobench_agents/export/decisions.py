@@ -18,6 +18,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from cocobench_agents.export.columns import IMAGE_COLUMN
 from cocobench_agents.models.secrets import redact_obj, secret_values
 from cocobench_agents.runfolder import RunFolder
 from cocobench_agents.runfolder.infra import is_infra_failure
@@ -67,8 +68,8 @@ def episode_rows(folder: RunFolder, run_name: str, line: Mapping[str, Any],
         prompt = prompts.get(str(decision["prompt_hash"]))
         stats.without_prompt += prompt is None
         row = {**outcome, **_decision_columns(decision, index, prompt, landed),
-               "image": frames.at(decision.get("step_index"))}
-        stats.with_image += row["image"] is not None
+               IMAGE_COLUMN: frames.at(decision.get("step_index"))}
+        stats.with_image += row[IMAGE_COLUMN] is not None
         stats.rows += 1
         yield redact(row)  # frame bytes are not text: redaction leaves them as they are
 
