@@ -16,7 +16,7 @@ from cocobench_agents.export.decisions import EpisodeStats, Redactor
 from cocobench_agents.export.runs import Run
 from cocobench_agents.export.writer import DATA_FILE
 from cocobench_agents.models.secrets import redact_named
-from cocobench_agents.reports.arms import row_settings
+from cocobench_agents.reports.arms import recorded_settings, row_settings
 from cocobench_agents.version import __version__
 
 #: What the card says of the licence: the benchmark's data states none that it could name.
@@ -64,14 +64,15 @@ def _summary(facts: CardFacts) -> str:
 
 def _run_section(run: Run, facts: CardFacts) -> str:
     record = run.record
-    request = record.get("request") if isinstance(record.get("request"), Mapping) else {}
+    request, _ = recorded_settings(record)  # the run's options, in either run.json layout
     plan = record.get("plan") if isinstance(record.get("plan"), Mapping) else {}
+    budget = request.get("max_steps") or "each instance's own"
     lines = [f"## Run `{run.name}`", "",
              f"- created: {record.get('created_at', 'not recorded')}, by cocobench-agents "
              f"{record.get('cocobench_agents', '?')}",
              f"- command: `{record.get('command', 'not recorded')}`",
              f"- backend: {request.get('backend', 'not recorded')}; epochs: "
-             f"{request.get('epochs', 1)}; step budget override: {request.get('max_steps')}",
+             f"{request.get('epochs', 1)}; step budget: {budget}",
              f"- models: {', '.join(map(str, plan.get('models') or [])) or 'not recorded'}",
              f"- conditions: {', '.join(map(str, plan.get('conditions') or []))}",
              f"- instances: {len(plan.get('task_ids') or [])}"]

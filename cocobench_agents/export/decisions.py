@@ -92,7 +92,7 @@ def _outcome(run_name: str, line: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _decision_columns(decision: Mapping[str, Any], index: int, prompt: str | None,
-                      landed: Mapping[str, bool]) -> dict[str, Any]:
+                      landed: Mapping[object, bool]) -> dict[str, Any]:
     agent = decision.get("agent")
     return {
         "decision_index": index, "step": _integer(decision.get("step_index")),
@@ -111,7 +111,7 @@ def _decision_columns(decision: Mapping[str, Any], index: int, prompt: str | Non
     }
 
 
-def _landed_successes(items: Sequence[Mapping[str, Any]]) -> dict[str, bool]:
+def _landed_successes(items: Sequence[Mapping[str, Any]]) -> dict[object, bool]:
     """Whether each decision that landed a call succeeded, by the decision's identity (an
     item keeps the decision record that landed it, equal to the one in the decisions)."""
     out = {}
@@ -122,8 +122,13 @@ def _landed_successes(items: Sequence[Mapping[str, Any]]) -> dict[str, bool]:
     return out
 
 
-def _identity(decision: Mapping[str, Any]) -> str:
-    # Records carry cumulative counters (planner_steps), so no two of an episode are equal.
+def _identity(decision: Mapping[str, Any]) -> object:
+    # The harness's records carry a cumulative counter of model calls (planner_steps): with
+    # the seat and the prompt it tells an episode's decisions apart. A record without it (a
+    # trajectory written elsewhere) is known by its whole content.
+    if isinstance(decision.get("planner_steps"), int):
+        return (decision.get("agent"), decision.get("step_index"), decision["planner_steps"],
+                decision.get("prompt_hash"))
     return json.dumps(decision, sort_keys=True, default=str)
 
 

@@ -12,7 +12,6 @@ from typing import Any
 
 from cocobench_agents.export.errors import ExportError
 from cocobench_agents.runfolder import RUN_FILE, RunFolder, RunFolderError, holder
-from cocobench_agents.runfolder.infra import is_infra_failure
 
 
 @dataclass
@@ -27,10 +26,6 @@ class Run:
     @property
     def name(self) -> str:
         return str(self.record.get("name") or self.folder.path.name)
-
-    @property
-    def infra_failures(self) -> int:
-        return sum(is_infra_failure(line) for line in self.episodes)
 
 
 def open_runs(paths: Sequence[str | Path]) -> list[Run]:

@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import orjson
+
 from benchmark_adapter.trajectory import PROMPTS_FIELD, write_json_atomic
 from cocobench_agents.runfolder.episode_key import EpisodeKey, result_key
 from cocobench_agents.runfolder.errors import RunFolderError, gist, write_failed
@@ -176,11 +178,10 @@ class RunFolder:
         relative = str((line or {}).get("trajectory") or f"{key.folder()}/trajectory.json")
         path = self.inside(relative)
         try:
-            with open(path, encoding="utf-8") as f:
-                document = json.load(f)
+            document = orjson.loads(path.read_bytes())  # trajectories run to megabytes
         except FileNotFoundError:
             return None
-        except (OSError, ValueError, RecursionError) as exc:
+        except (OSError, ValueError, RecursionError) as exc:  # orjson's error is a ValueError
             raise RunFolderError(f"{path}: unreadable ({gist(exc)})") from None
         if not isinstance(document, dict):
             raise RunFolderError(f"{path}: not a trajectory (a JSON object)")

@@ -7,7 +7,6 @@ from __future__ import annotations
 import base64
 import io
 import json
-import shutil
 from collections import defaultdict
 from pathlib import Path
 
@@ -205,4 +204,3 @@ def test_an_export_is_a_copy_of_what_it_read(capsys, played_run, tmp_path):
     code, _, err = export(capsys, played_run, "--out", tmp_path / "ds")
     assert code == 0, err
     assert {p: p.read_bytes() for p in played_run.rglob("*") if p.is_file()} == before
-    shutil.rmtree(tmp_path / "ds")
