@@ -46,8 +46,8 @@ def export_runs(runs: Sequence[str | Path], out: str | Path, *, where: Sequence[
     selection = Selection.parse(where)
     opened = open_runs(runs)
     check_out(out)
-    require_pyarrow()
     chosen, left_out = _choose(opened, selection, include_infra)
+    require_pyarrow()
     warnings = [w for run in opened for w in run.warnings]
     redact = Redactor()
     stats = EpisodeStats()

@@ -77,6 +77,7 @@ def test_an_output_folder_in_use_is_refused_and_left_as_it_was(capsys, played_ru
                                                   out / "notes.txt")
 
 
+@pytest.mark.needs_export
 def test_a_damaged_trajectory_is_named(capsys, run_copy, tmp_path):
     line = result_lines(run_copy)[3]
     (run_copy / line["trajectory"]).write_text("{not json")
