@@ -21,7 +21,8 @@ COLUMNS: tuple[tuple[str, Kind, str], ...] = (
     ("epoch", "int64", "the epoch of a run of several (0 otherwise)"),
     ("decision_index", "int64", "the decision's place among the episode's model decisions"),
     ("step", "int64", "the environment step counter when the decision was asked for"),
-    ("seat", "string", "who decided: the agent id, or 'team' for a centralized planner"),
+    ("seat", "string", "who decided: the agent id, or 'team' for a decision for the whole "
+                       "team (a centralized planner, a leader)"),
     ("seat_model", "string", "the model that made this decision (differs from `model` for "
                              "a seat of a mixed team)"),
     ("messages", "messages", "the chat messages exactly as sent ({role, content}); under "
@@ -29,10 +30,11 @@ COLUMNS: tuple[tuple[str, Kind, str], ...] = (
     ("reply", "string", "the model's reply text, as received (null: no reply, a backend "
                         "error)"),
     ("status", "string", "what the reply was: action, done, parse_error, invalid_action_id, "
-                         "backend_error"),
+                         "backend_error, or plan (a leader's instructions)"),
     ("parsed_action_id", "string", "the menu id (or DONE) read from the reply"),
     ("parsed_call", "string", "the skill call that id names (null when none)"),
-    ("legal", "bool", "the reply named an action on the seat's menu, or DONE"),
+    ("legal", "bool", "the reply named an action on the seat's menu, or DONE (null: no "
+                      "reply, or a leader's plan)"),
     ("step_success", "bool", "the landed call succeeded in the simulator (null: nothing "
                              "landed)"),
     ("message", "string", "the message the seat sent its teammates (D1; null otherwise)"),

@@ -23,8 +23,10 @@ from cocobench_agents.models.secrets import redact_obj, secret_values
 from cocobench_agents.runfolder import RunFolder
 from cocobench_agents.runfolder.infra import is_infra_failure
 
-#: Decision statuses whose reply named an action on the menu, or DONE.
+#: Decision statuses whose reply named an action on the menu, or DONE; and those whose reply
+#: did not (`legal` is null for the others: no reply, a leader's plan for its workers).
 LEGAL_STATUSES = ("action", "done")
+ILLEGAL_STATUSES = ("parse_error", "invalid_action_id")
 CENTRALIZED_SEAT = "team"
 
 
@@ -103,12 +105,18 @@ def _decision_columns(decision: Mapping[str, Any], index: int, prompt: str | Non
         "reply": _text(decision.get("raw_output")), "status": _text(decision.get("status")),
         "parsed_action_id": _text(decision.get("parsed_action_id")),
         "parsed_call": _text(decision.get("parsed_call")),
-        "legal": decision.get("status") in LEGAL_STATUSES,
+        "legal": _legality(decision.get("status")),
         "step_success": landed.get(_identity(decision)),
         "message": _text(decision.get("message")) or None,
         "prompt_tokens": _integer(decision.get("prompt_tokens")),
         "completion_tokens": _integer(decision.get("completion_tokens")),
     }
+
+
+def _legality(status: Any) -> bool | None:
+    if status in LEGAL_STATUSES:
+        return True
+    return False if status in ILLEGAL_STATUSES else None
 
 
 def _landed_successes(items: Sequence[Mapping[str, Any]]) -> dict[object, bool]:

@@ -46,7 +46,8 @@ def test_one_row_per_model_decision_with_the_messages_as_kept(capsys, played_run
             assert row["step"] == decision["step_index"]
             assert row["seat"] == (decision["agent"] or "team")
             assert row["seat_model"] == decision["model"] == line["model"]
-            assert row["legal"] == (decision["status"] in ("action", "done"))
+            assert row["legal"] == {"action": True, "done": True, "parse_error": False,
+                                    "invalid_action_id": False}[decision["status"]]
             assert row["episode_success"] == bool(line["task_success"])
             assert row["construct_score"] == line["construct_score"]
             assert row["episode_progress"] == line["task_progress"]
@@ -204,3 +205,28 @@ def test_an_export_is_a_copy_of_what_it_read(capsys, played_run, tmp_path):
     code, _, err = export(capsys, played_run, "--out", tmp_path / "ds")
     assert code == 0, err
     assert {p: p.read_bytes() for p in played_run.rglob("*") if p.is_file()} == before
+
+
+def test_a_leader_and_its_workers_are_rows_of_their_own(capsys, tmp_path):
+    """Leader–worker: the leader's plan is a row for the team (its legality does not apply),
+    each worker's choice a row of its seat; two prompt-suite arms are told apart."""
+    from tests.export.conftest import config
+
+    run = tmp_path / "run"
+    assert main_run(run, "--task", config("K_D3__FloorPlan10__3agent_seed0"), "--planner",
+                    "leader-worker", "--obs", "blind", "--prompt-suite", "cocobench-v1",
+                    "--prompt-suite", "cocobench-v1+no-hint") == 0
+    code, _, err = export(capsys, run, "--out", tmp_path / "ds")
+    assert code == 0, err
+    rows = load(tmp_path / "ds", tmp_path / "cache")
+    assert set(rows["arm"]) == {"cocobench-v1", "cocobench-v1+no-hint"}
+    leaders = rows.filter(lambda r: r["seat"] == "team")
+    assert len(leaders) > 0 and set(leaders["status"]) == {"plan"}
+    assert set(leaders["legal"]) == {None}
+    workers = rows.filter(lambda r: r["seat"] != "team")
+    assert set(workers["seat"]) == {"agent_1", "agent_2", "agent_3"}
+    assert set(workers["legal"]) == {True}
+    for line in result_lines(run):
+        expected = [prompt for _, prompt in model_decisions(run, line)]
+        got = rows.filter(lambda r, arm=line["arm"]: r["arm"] == arm)
+        assert [m[0]["content"] for m in got["messages"]] == expected
