@@ -2,9 +2,10 @@
 (extra) each test needs.
 
 A test that needs an extra carries its marker (`needs_ray`, `needs_thor`, `needs_browser`,
-`needs_langgraph_cli`, `llm`); where that piece is missing, the test is skipped with the
-reason and the command that installs it. Nothing else in the tests skips on a missing extra.
-`--fail-on-skip` turns any skip into a failed session (CI's run with every extra installed).
+`needs_langgraph_cli`, `needs_export`, `llm`); where that piece is missing, the test is
+skipped with the reason and the command that installs it. Nothing else in the tests skips
+on a missing extra. `--fail-on-skip` turns any skip into a failed session (CI's run with
+every extra installed).
 """
 
 from __future__ import annotations
@@ -64,12 +65,17 @@ def langgraph_cli_missing() -> str | None:
     return module_missing("langgraph_sdk", "pip install langgraph-sdk")()
 
 
+#: The export extra (pyarrow writes the Parquet) and `datasets`, which the tests load it with.
+EXPORT_INSTALL = "pip install -e '.[export]' 'datasets>=4'"
+
 EXTRAS = (
     Extra("needs_ray", module_missing("ray", "pip install -e '.[ray]'")),
     Extra("needs_thor", module_missing("ai2thor", "pip install -e '.[thor]'")),
     Extra("needs_browser", browser_missing),
     Extra("needs_langgraph_cli", langgraph_cli_missing),
     Extra("llm", llm_missing),
+    Extra("needs_export", lambda: module_missing("pyarrow", EXPORT_INSTALL)()
+          or module_missing("datasets", EXPORT_INSTALL)()),
 )
 
 

@@ -225,10 +225,16 @@ def _to_run(document: Path) -> bool:
         return True
 
 
+#: Documents whose blocks use an optional extra: they carry its marker (tests/conftest.py
+#: skips them, naming the install, where it is missing).
+DOCUMENT_EXTRAS = {"environments.md": ("needs_export",)}
+
+
 def _needs_shared(document: Path) -> list:
     uses = "../shared" in document.read_text(encoding="utf-8")
+    extras = [getattr(pytest.mark, marker) for marker in DOCUMENT_EXTRAS.get(document.name, ())]
     return [pytest.mark.skipif(uses and not SHARED_DATA.is_dir(),
-                               reason=f"no shared data at {SHARED_DATA}")]
+                               reason=f"no shared data at {SHARED_DATA}"), *extras]
 
 
 @pytest.mark.slow

@@ -40,6 +40,8 @@ HIDE = {
         lambda monkeypatch: monkeypatch.setattr(extras, "LANGGRAPH_CLI", Path("/nonexistent")),
         "langgraph-cli is not installed (pip install 'langgraph-cli[inmem]"),
     "llm": (hide_module("xllamacpp"), "xllamacpp is not installed (pip install xllamacpp)"),
+    "needs_export": (hide_module("pyarrow"),
+                     "pyarrow is not installed (pip install -e '.[export]' 'datasets>=4')"),
 }
 
 

@@ -52,6 +52,8 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("benchmark_adapter.episode", "image"): "writes the trajectory item's `image` field",
     ("cocobench_agents.viewer.export", "image"): "reads the trajectory item's `image` field",
     ("cocobench_agents.viewer.timeline", "image"): "reads the trajectory item's `image` field",
+    ("cocobench_agents.export.decisions", "image"): "reads the trajectory item's `image` field",
+    ("cocobench_agents.export.columns", "image"): "names the dataset's `image` column",
     # `ai2thor` as the name of the Python package (imported, its version looked up), not the
     # backend.
     ("benchmark_adapter.sim.thor.loader", "ai2thor"): "imports the ai2thor package",

@@ -26,6 +26,7 @@ COMMANDS = {
     "prompts": "prompts_cmd:prompts_command",
     "planners": "planners_cmd:planners_command",
     "view": "view_cmd:view_command",
+    "export": "export_cmd:export_command",
 }
 
 # What `cocobench --help` lists, so that it imports no subcommand (a command missing here is
@@ -41,11 +42,13 @@ SUMMARIES = {
     "prompts": "List, export and preview prompt suites (the prompt a model gets).",
     "planners": "List every planner: built in, installed by packages, or your own file.",
     "view": "Browse run folders in a browser (live), or export them as static pages.",
+    "export": "Write run folders' decisions as a Hugging Face dataset (Parquet + card).",
 }
 
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback (the
-# engine's, and the viewer's).
-USER_ERRORS = {**ENGINE_USER_ERRORS, "cocobench_agents.viewer.errors": "ViewerError"}
+# engine's, the viewer's and the export's).
+USER_ERRORS = {**ENGINE_USER_ERRORS, "cocobench_agents.viewer.errors": "ViewerError",
+               "cocobench_agents.export.errors": "ExportError"}
 
 
 class LazyGroup(click.Group):

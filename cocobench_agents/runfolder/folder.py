@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import orjson
+
 from benchmark_adapter.trajectory import PROMPTS_FIELD, write_json_atomic
 from cocobench_agents.runfolder.episode_key import EpisodeKey, result_key
 from cocobench_agents.runfolder.errors import RunFolderError, gist, write_failed
@@ -167,6 +169,24 @@ class RunFolder:
         except (OSError, EOFError, ValueError, zlib.error) as exc:  # a damaged file
             raise RunFolderError(f"{path}: unreadable ({gist(exc)})") from None
 
+    def trajectory(self, episode: EpisodeKey | Mapping[str, Any]) -> dict[str, Any] | None:
+        """An episode's trajectory document (its key, or its result line, whose `trajectory`
+        names the file); None when the folder has none for it (an infrastructure error, a
+        missing file); `RunFolderError` naming the file when it is not a JSON object."""
+        line = None if isinstance(episode, EpisodeKey) else episode
+        key = episode if isinstance(episode, EpisodeKey) else _episode_of_line(episode)
+        relative = str((line or {}).get("trajectory") or f"{key.folder()}/trajectory.json")
+        path = self.inside(relative)
+        try:
+            document = orjson.loads(path.read_bytes())  # trajectories run to megabytes
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError, RecursionError) as exc:  # orjson's error is a ValueError
+            raise RunFolderError(f"{path}: unreadable ({gist(exc)})") from None
+        if not isinstance(document, dict):
+            raise RunFolderError(f"{path}: not a trajectory (a JSON object)")
+        return document
+
     def prompt(self, episode: EpisodeKey | Mapping[str, Any], prompt_hash: str) -> str | None:
         """The text of the prompt a decision of `episode` (its key or its result line) names
         (None if not kept)."""
@@ -181,6 +201,18 @@ class RunFolder:
             raise RunFolderError(f"refusing to write {relative!r}: it is not inside the run "
                                  f"folder {self.path}")
         return Path(target)
+
+    def read_file(self, relative: str) -> bytes | None:
+        """The bytes of the file at `relative` in the run folder (a frame a trajectory item
+        names); None when there is none, or when it, or a link on its way, leads out of the
+        folder: a reader takes nothing else of the disk."""
+        try:
+            target = self.inside(relative).resolve(strict=True)
+            if not target.is_relative_to(self.path.resolve(strict=True)):
+                return None
+            return target.read_bytes() if target.is_file() else None
+        except (OSError, ValueError, RuntimeError, RunFolderError):  # RuntimeError: a loop
+            return None
 
     def append_result(self, record: dict[str, Any]) -> None:
         """Append one result line, whole or not at all, and fsync it; `RunFolderWriteError`

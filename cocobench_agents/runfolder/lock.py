@@ -79,6 +79,26 @@ class RunLock:
         self.release()
 
 
+def holder(folder: str | Path) -> RunLocked | None:
+    """Whether a live process holds `folder`'s lock (its `RunLocked`, naming the pid), found
+    without taking the lock nor writing anything: readers of a finished run (an export) need
+    no write access to it, and leave a killed run's pid for `--resume` to report."""
+    path = Path(folder) / LOCK_FILE
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:  # no lock file: no run ever held it, or it was released and removed
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return RunLocked(Path(folder), _read_pid(fd))
+    except OSError:
+        return None
+    finally:
+        os.close(fd)  # closing the descriptor releases the shared lock just taken
+    return None
+
+
 def _read_pid(fd: int) -> int | None:
     try:
         text = os.pread(fd, 32, 0).decode("ascii", "replace").strip()
