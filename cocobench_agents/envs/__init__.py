@@ -5,7 +5,8 @@ docs/environments.md."""
 
 from cocobench_agents.envs.parallel import CoCoBenchParallelEnv, env, parallel_env
 from cocobench_agents.envs.rewards import DEFAULT_WEIGHTS
+from cocobench_agents.envs.seat_env import SeatEnv
 from cocobench_agents.envs.seated import DONE, EnvError, SeatAction, SeatedEpisode
 
 __all__ = ["DEFAULT_WEIGHTS", "DONE", "CoCoBenchParallelEnv", "EnvError", "SeatAction",
-           "SeatedEpisode", "env", "parallel_env"]
+           "SeatEnv", "SeatedEpisode", "env", "parallel_env"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from pettingzoo import ParallelEnv
@@ -12,14 +12,14 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import IMAGE
-from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.envs.rewards import reward_weights, step_reward
 from cocobench_agents.envs.seated import EnvError, SeatAction, SeatedEpisode, seat_name
 from cocobench_agents.envs.source import instances, one_condition
 from cocobench_agents.envs.spaces import SeatSpaces
+from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.graphs.registry import AGENT_SEAT, LEADER_SEAT, TEAM_SEAT
-from cocobench_agents.models.protocol import ModelClient
+from cocobench_agents.models import ModelPool
 from cocobench_agents.prompts import DEFAULT_SUITE
 
 #: The largest menu id an action space holds by default (menus of the suites stay far below).
@@ -34,18 +34,22 @@ class CoCoBenchParallelEnv(ParallelEnv):
     leader–worker, whose rounds take two steps: the leader's, then the robots'). See
     docs/environments.md."""
 
-    metadata = {"name": "cocobench_v0", "render_modes": [], "is_parallelizable": True}
+    metadata: ClassVar[dict[str, Any]] = {"name": "cocobench_v0", "render_modes": [],
+                                          "is_parallelizable": True}
 
     def __init__(self, source: str, *, condition: str, task_id: str | None = None,
                  prompt_suite: str = DEFAULT_SUITE, reward: Mapping[str, float] | None = None,
                  seed: int | None = None, text: bool = True, max_steps: int | None = None,
                  max_menu: int = DEFAULT_MAX_MENU, model: str = DEFAULT_MODEL_NAME,
-                 partners: Mapping[str, ModelClient] | None = None) -> None:
+                 partners: Mapping[str, str] | None = None, off_menu: str = "error") -> None:
         self.condition = one_condition(condition)
         self.configs = instances(source, task_id)
         self.weights = reward_weights(reward)
         self.prompt_suite, self.text, self.max_steps = prompt_suite, text, max_steps
-        self.model, self.partners = model, dict(partners or {})
+        self.model, self.partners, self.off_menu = model, dict(partners or {}), off_menu
+        self.pool = ModelPool()
+        for spec in dict.fromkeys(self.partners.values()):
+            self.pool.validate(spec)
         self.render_mode = None
         planner = planner_spec(self.condition.planner)
         self.possible_agents = _all_seats(self.configs, self.condition.planner)
@@ -167,7 +171,8 @@ class CoCoBenchParallelEnv(ParallelEnv):
             partners = {s: c for s, c in self.partners.items()
                         if s in _seats_of(config, self.condition.planner)}
             episode = self._episodes[config.task_id] = SeatedEpisode(
-                spec, partners=partners, text=self.text)
+                spec, partners=partners, pool=self.pool, text=self.text,
+                off_menu=self.off_menu)
         return episode
 
     def _image_shape(self, seat: str, robots: int) -> tuple[int, ...] | None:
@@ -227,7 +232,8 @@ def parallel_env(source: str, *, condition: str, task_id: str | None = None,
     """CoCoBench as a PettingZoo parallel environment: `source` is anything `--task` /
     `--suite` takes, `condition` one condition code (``D1_blind``). Options: ``text``
     (render prompts; default True), ``max_steps``, ``max_menu``, ``model`` (the name the
-    seats' decisions record)."""
+    seats' decisions record), ``partners`` (seat → model spec: seats played by a model),
+    ``off_menu`` ("error", or "score": an id off the menu scored as a model's invalid id)."""
     return CoCoBenchParallelEnv(source, condition=condition, task_id=task_id,
                                 prompt_suite=prompt_suite, reward=reward, seed=seed, **options)
 

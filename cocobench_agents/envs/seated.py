@@ -20,9 +20,8 @@ from typing import Any
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.metrics import EpisodeResult
-from cocobench_agents.episode_runner import EpisodeSpec
-from cocobench_agents.graphs import PlannerContext, planner_spec
-from cocobench_agents.graphs import centralized, decentralized
+from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, ClientFactory, EpisodeSpec
+from cocobench_agents.graphs import PlannerContext, centralized, decentralized, planner_spec
 from cocobench_agents.graphs.centralized import land_decision
 from cocobench_agents.graphs.decentralized import board
 from cocobench_agents.graphs.decision import decide, reply_decision
@@ -30,22 +29,26 @@ from cocobench_agents.graphs.leader_worker import ask_leader, record_directives,
 from cocobench_agents.graphs.nodes import land_decisions
 from cocobench_agents.graphs.registry import (
     AGENT_SEAT,
-    LED_ROUND,
     LEADER_SEAT,
+    LED_ROUND,
     STEP,
     TEAM_SEAT,
     Seat,
 )
 from cocobench_agents.graphs.state import TEAM, team_history
-from cocobench_agents.models.protocol import MenuOption, ModelClient, ModelReply
+from cocobench_agents.models import ModelPool
+from cocobench_agents.models.protocol import MenuOption, ModelReply
 from cocobench_agents.prompts import load_prompt_suite
 from cocobench_agents.tools import EpisodeTools, stop_decision
 
 #: The action that chooses no menu entry: ``ACTION: DONE`` (also what a waiting seat sends).
-DONE = 0
+#: Menu ids start at 0, so DONE is -1.
+DONE = -1
 #: The planners the environment steps: their loop rules are the ones `SeatedEpisode` applies.
 STEPPED_PLANNERS = ("centralized", "decentralized", "decentralized-broadcast", "leader-worker")
-LEAD, WORK = "lead", "work"  # the two phases of a leader–worker round
+LEAD, WORK = "lead", "work"
+#: What an action off the menu does: raise, or be scored as an invalid id.
+OFF_MENU = ("error", "score")  # the two phases of a leader–worker round
 
 
 class EnvError(ValueError):
@@ -80,6 +83,15 @@ class SeatView:
     sends_message: bool = False  # whether a message is read from it now
 
 
+def _client_key(seat: str) -> str:
+    """The `PlannerContext.clients` key of a seat: "*" for the team's planner and the leader."""
+    return DEFAULT_MODEL_KEY if seat in (TEAM_SEAT, LEADER_SEAT) else seat
+
+
+def _client_agent(seat: str) -> str | None:
+    return None if seat in (TEAM_SEAT, LEADER_SEAT) else seat
+
+
 def seat_name(seat: Seat) -> str:
     """A seat's name as an environment agent: the robot's id, else its role."""
     return seat.agent if seat.role == AGENT_SEAT else seat.role
@@ -87,12 +99,21 @@ def seat_name(seat: Seat) -> str:
 
 class SeatedEpisode:
     """One episode of `spec` (a built-in C0/D0/D1/leader-worker planner) whose seats act
-    through `step`. `partners` maps seat names to model clients that play those seats;
-    `text=False` skips rendering prompts (observations then carry no prompt text, and the
-    trajectory's decisions name the empty prompt)."""
+    through `step`. `partners` maps seat names to the model specs that play those seats (any
+    the harness runs: ``greedy``, ``random``, ``scripted:FILE``, ``replay:RUN``, a LiteLLM
+    model), their clients made by `pool` afresh for each episode; `text=False` skips
+    rendering prompts (observations then carry no prompt text, and the trajectory's decisions
+    name the empty prompt). An action off the seat's menu is an `EnvError`; with
+    ``off_menu="score"`` it is scored as a model's reply naming an id not on its menu is (an
+    ``invalid_action_id`` decision), which Gymnasium's checker needs (it samples unmasked)."""
 
-    def __init__(self, spec: EpisodeSpec, *, partners: Mapping[str, ModelClient] | None = None,
-                 text: bool = True) -> None:
+    def __init__(self, spec: EpisodeSpec, *, partners: Mapping[str, str] | None = None,
+                 pool: ClientFactory | None = None, text: bool = True,
+                 off_menu: str = "error") -> None:
+        if off_menu not in OFF_MENU:
+            raise EnvError(f"off_menu must be {' or '.join(map(repr, OFF_MENU))}, not "
+                           f"{off_menu!r}")
+        self.off_menu = off_menu
         if spec.planner not in STEPPED_PLANNERS:
             raise EnvError(f"the environment steps the planners {', '.join(STEPPED_PLANNERS)}"
                            f" (whose loop rules it applies), not {spec.planner!r}")
@@ -108,6 +129,7 @@ class SeatedEpisode:
             raise EnvError(f"no seat {unknown[0]!r} in {spec.planner}: seats are "
                            f"{', '.join(self.seats)}")
         self.learners = [s for s in self.seats if s not in self.partners]
+        self.pool = pool if pool is not None else ModelPool()
         self.model = spec.model_for(None)  # the name the learners' decisions record
         self._suite = load_prompt_suite(spec.prompt_suite)
         self._episode = Episode(spec.config, spec.controller())
@@ -120,8 +142,10 @@ class SeatedEpisode:
         """Start the episode over: the scene reloaded, nothing recorded."""
         self.tools = EpisodeTools(self._episode, self._suite, obs_mode=self.spec.obs_mode,
                                   stable_ids=self.spec.stable_ids)
-        clients = {("*" if s in (TEAM_SEAT, LEADER_SEAT) else s): c
-                   for s, c in self.partners.items()}
+        self.pool.release(self.spec.episode)  # fresh clients: they keep state per episode
+        clients = {_client_key(s): self.pool.client(model, episode=self.spec.episode,
+                                                    agent=_client_agent(s))
+                   for s, model in self.partners.items()}
         self.ctx = PlannerContext(tools=self.tools, clients=clients, budget=self.spec.budget,
                                   sample_index=self.spec.sample_index)
         self.state: dict[str, Any] = {"agents": self.spec.config.agent_ids, "round_index": 1,
@@ -231,22 +255,22 @@ class SeatedEpisode:
     def _check_move(self, seat: str, move: SeatAction) -> None:
         view = self.view(seat)
         if seat in self.partners:
-            raise EnvError(f"seat {seat!r} is played by {self.partners[seat].name}: "
+            raise EnvError(f"seat {seat!r} is played by {self.partners[seat]}: "
                            "pass no action for it")
         if move.message and not view.sends_message:
             why = "waits this phase" if not view.acting else "sends no messages"
             raise EnvError(f"seat {seat!r} {why}: its action carries no message "
                            f"(got {move.message[:40]!r})")
-        if move.action == DONE:
+        if move.action == DONE or self.off_menu == "score":
             return
         if not view.acting:
-            raise EnvError(f"seat {seat!r} waits this phase: its action must be DONE (0), "
+            raise EnvError(f"seat {seat!r} waits this phase: its action must be DONE (-1), "
                            f"not {move.action}")
         if move.action not in {o.action_id for o in view.menu}:
             ids = sorted(o.action_id for o in view.menu)
             raise EnvError(f"action {move.action} of seat {seat!r} is not on its menu (the "
                            f"action mask): ids now are {ids[:12]}{'…' if len(ids) > 12 else ''}"
-                           " or DONE (0)")
+                           " or DONE (-1)")
 
     def _play(self, actions: Mapping[str, SeatAction]) -> None:
         if self.loop == LED_ROUND and self.phase == LEAD:

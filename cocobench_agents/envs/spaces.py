@@ -1,13 +1,14 @@
 """The Gymnasium spaces of a seat, and its observation encoded in them.
 
-A seat's action is a menu id (the id its prompt shows) or `DONE` (0): ``Discrete(max_menu +
-1)``. A seat that broadcasts (D1's robots, leader–worker's robots and leader) acts with
-``{"action": id, "message": text}``. The observation is a dict: ``prompt`` (the harness's
-prompt text), ``menu`` (its menu lines), ``action_mask`` (1 for DONE and each id on the menu;
-for a broadcasting seat ``{"action": mask, "message": (length, characters)}``, the mask
-Gymnasium's ``Text.sample`` takes: ``(0, zeros)`` when the seat sends no message now), and
-under image conditions ``image``: the seat's camera frame as an RGB array (the team's seat:
-every robot's frame, ``(robots, H, W, 3)``).
+A seat's action is a menu id (the id its prompt shows; ids start at 0) or `DONE` (-1):
+``Discrete(max_menu + 2, start=-1)``. A seat that broadcasts (D1's robots, leader–worker's
+robots and leader) acts with ``{"action": id, "message": text}``. The observation is a dict:
+``prompt`` (the harness's prompt text), ``menu`` (its menu lines), ``action_mask`` (entry 0
+for DONE, entry ``id + 1`` for each id on the menu: the mask ``Discrete(…, start=-1)``
+samples with; for a broadcasting seat ``{"action": mask, "message": (length, characters)}``,
+the message part being the mask Gymnasium's ``Text.sample`` takes: ``(0, zeros)`` when the
+seat sends no message now), and under image conditions ``image``: the seat's camera frame as
+an RGB array (the team's seat and the leader: every robot's frame, ``(robots, H, W, 3)``).
 """
 
 from __future__ import annotations
@@ -52,17 +53,18 @@ class SeatSpaces:
                  image_shape: tuple[int, ...] | None) -> None:
         self.seat, self.max_menu, self.broadcasts = seat, max_menu, broadcasts
         self.image_shape = image_shape
-        choice = spaces.Discrete(max_menu + 1)
+        size = max_menu + 2  # DONE, then ids 0..max_menu
+        choice = spaces.Discrete(size, start=DONE)
         if broadcasts:
             limit = LEADER_LIMIT if seat == LEADER_SEAT else MESSAGE_LIMIT
             self.action = spaces.Dict({"action": choice, "message": AnyText(limit)})
             mask: spaces.Space = spaces.Dict({
-                "action": spaces.MultiBinary(max_menu + 1),
+                "action": spaces.MultiBinary(size),
                 "message": spaces.Tuple((spaces.Discrete(SAMPLE_LENGTH + 1),
                                          spaces.MultiBinary(len(MESSAGE_CHARS))))})
         else:
             self.action = choice
-            mask = spaces.MultiBinary(max_menu + 1)
+            mask = spaces.MultiBinary(size)
         fields: dict[str, spaces.Space] = {"prompt": AnyText(TEXT_LIMIT),
                                            "menu": AnyText(TEXT_LIMIT), "action_mask": mask}
         if image_shape is not None:
@@ -72,14 +74,14 @@ class SeatSpaces:
     def encode(self, view: SeatView, frames: list[bytes] | None) -> dict[str, Any]:
         """`view` as an observation of these spaces (`frames`: the PNGs under image
         conditions)."""
-        ids = np.zeros(self.max_menu + 1, np.int8)
-        ids[DONE] = 1
+        ids = np.zeros(self.max_menu + 2, np.int8)
+        ids[0] = 1  # DONE
         for option in view.menu:
             if option.action_id > self.max_menu:
                 raise EnvError(f"menu id {option.action_id} of seat {self.seat!r} is above "
                                f"max_menu={self.max_menu}: build the environment with a "
                                "larger max_menu")
-            ids[option.action_id] = 1
+            ids[option.action_id - DONE] = 1
         mask: Any = ids
         if self.broadcasts:
             sends = view.acting and view.sends_message
@@ -122,5 +124,5 @@ class SeatSpaces:
 def _menu_id(seat: str, value: Any) -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise EnvError(f"the action of seat {seat!r} must be a menu id (an integer; DONE is "
-                       f"0), not {value!r}")
+                       f"-1), not {value!r}")
     return int(value)

@@ -1,0 +1,82 @@
+"""The environment is the benchmark: an episode played through it scores exactly as the same
+replies score under `--model scripted:FILE` (every result field, times aside)."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+
+import pytest
+
+from benchmark_adapter.tasks import load_tasks
+from cocobench_agents.episode_runner import EpisodeSpec, run_episode
+from cocobench_agents.models import ModelPool
+from tests.envs.play import done_after, illegal_first, oracle_policy, play, random_policy
+from tests.paths import SHARED_TASKS
+
+pytestmark = pytest.mark.needs_env
+
+PLANNERS = ("centralized", "decentralized", "decentralized-broadcast", "leader-worker")
+#: Times differ between any two runs; everything else must not.
+TIMES = {"elapsed_s"}
+
+
+def instances() -> list:
+    """A dozen instances: real configs of the shared data and of the built-in suites."""
+    shared = load_tasks(SHARED_TASKS)
+    picked = [shared[i] for i in range(0, len(shared), max(1, len(shared) // 8))][:8]
+    suite = load_tasks("cocobench-240")
+    return [*picked, suite[0], suite[60], suite[120], load_tasks("demo")[0]]
+
+
+POLICIES = {"oracle": lambda i: oracle_policy(), "random": random_policy,
+            "illegal": illegal_first, "done_early": lambda i: done_after(2, i)}
+
+
+def scored_both_ways(config, planner: str, policy_name: str, tmp_path, index: int):
+    from cocobench_agents.envs import SeatedEpisode
+
+    script = tmp_path / f"{config.task_id}-{planner}-{policy_name}.json"
+    spec = EpisodeSpec(config, planner=planner, models={"*": f"scripted:{script}"},
+                       obs_mode="blind", max_steps=24)
+    episode = SeatedEpisode(spec)
+    replies = play(episode, POLICIES[policy_name](index))
+    script.write_text(json.dumps(replies))
+    _, result = asyncio.run(run_episode(spec, ModelPool()))
+    return episode.result, result
+
+
+def differences(env_result, run_result) -> dict:
+    a = env_result.model_dump(mode="json")
+    b = run_result.model_dump(mode="json")
+    return {k: (a.get(k), b.get(k)) for k in a.keys() | b.keys()
+            if k not in TIMES and _strip(a.get(k)) != _strip(b.get(k))}
+
+
+def _strip(value):
+    """Latencies are times too: measured around each model call."""
+    if isinstance(value, dict):
+        return {k: _strip(v) for k, v in value.items() if "latency" not in k}
+    if isinstance(value, list):
+        return [_strip(v) for v in value]
+    return value
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("planner", PLANNERS)
+@pytest.mark.parametrize("policy_name", list(POLICIES))
+def test_an_episode_scores_as_the_scripted_run_scores_it(planner, policy_name, tmp_path):
+    played = 0
+    for index, config in enumerate(instances()):
+        env_result, run_result = scored_both_ways(config, planner, policy_name, tmp_path, index)
+        assert differences(env_result, run_result) == {}, config.task_id
+        played += env_result.steps_total if hasattr(env_result, "steps_total") else 1
+    assert played
+
+
+def test_a_random_d1_episode_scores_as_its_scripted_run(tmp_path):
+    config = load_tasks(SHARED_TASKS)[0]
+    env_result, run_result = scored_both_ways(config, "decentralized-broadcast", "random",
+                                              tmp_path, 0)
+    assert differences(env_result, run_result) == {}
+    assert env_result.planner == "decentralized-broadcast"
