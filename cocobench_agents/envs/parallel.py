@@ -55,6 +55,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
         self.possible_agents = _all_seats(self.configs, self.condition.planner)
         self.learning = [s for s in self.possible_agents if s not in self.partners]
         robots = max(len(c.agent_ids) for c in self.configs)
+        self._frame = _frame_shape(self.configs[0]) if self.condition.obs_mode == IMAGE else None
         self._spaces = {seat: SeatSpaces(
             seat, max_menu=max_menu, broadcasts=planner.broadcast,
             image_shape=self._image_shape(seat, robots)) for seat in self.learning}
@@ -133,7 +134,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
     def _info(self) -> dict[str, Any]:
         episode = self._live()
         if episode.result is not None:  # the episode's result line
-            return {**episode.result.model_dump(mode="json"), "condition": self.condition.name}
+            return episode.result.model_dump(mode="json")
         return {"task_id": episode.spec.config.task_id, "step_index": episode.tools.step_index,
                 "phase": episode.phase, "progress": episode.progress()}
 
@@ -176,10 +177,9 @@ class CoCoBenchParallelEnv(ParallelEnv):
         return episode
 
     def _image_shape(self, seat: str, robots: int) -> tuple[int, ...] | None:
-        if self.condition.obs_mode != IMAGE:
+        if self._frame is None:
             return None
-        size = _frame_size(self.configs[0])
-        return (robots, *size) if seat in (TEAM_SEAT, LEADER_SEAT) else size
+        return (robots, *self._frame) if seat in (TEAM_SEAT, LEADER_SEAT) else self._frame
 
     @property
     def state_result(self):
@@ -211,8 +211,7 @@ def _robot_order(agent: str) -> tuple[int, str]:
     return (int(tail) if tail.isdigit() else 0, agent)
 
 
-@functools.cache
-def _frame_size(config: TaskConfig) -> tuple[int, int, int]:
+def _frame_shape(config: TaskConfig) -> tuple[int, ...]:
     """The shape of one robot's frame (rendered once)."""
     import io
 

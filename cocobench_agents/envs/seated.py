@@ -20,6 +20,7 @@ from typing import Any
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.metrics import EpisodeResult
+from cocobench_agents.conditions import condition_name
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, ClientFactory, EpisodeSpec
 from cocobench_agents.graphs import PlannerContext, centralized, decentralized, planner_spec
 from cocobench_agents.graphs.centralized import land_decision
@@ -131,6 +132,7 @@ class SeatedEpisode:
         self.learners = [s for s in self.seats if s not in self.partners]
         self.pool = pool if pool is not None else ModelPool()
         self.model = spec.model_for(None)  # the name the learners' decisions record
+        self.condition = condition_name(self.planner.code, spec.obs_mode)
         self._suite = load_prompt_suite(spec.prompt_suite)
         self._episode = Episode(spec.config, spec.controller())
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -171,9 +173,13 @@ class SeatedEpisode:
         return self.state.get("terminal_reason")
 
     def close(self) -> None:
+        """Close the event loop partners' model calls run on."""
         if self._loop is not None:
             self._loop.close()
             self._loop = None
+
+    def __del__(self) -> None:
+        self.close()
 
     # -- observing ---------------------------------------------------------------------
 
@@ -261,8 +267,8 @@ class SeatedEpisode:
             why = "waits this phase" if not view.acting else "sends no messages"
             raise EnvError(f"seat {seat!r} {why}: its action carries no message "
                            f"(got {move.message[:40]!r})")
-        if move.action == DONE or self.off_menu == "score":
-            return
+        if move.action == DONE or self.off_menu == "score" or seat == LEADER_SEAT:
+            return  # (the leader's move is its message; its id is never read)
         if not view.acting:
             raise EnvError(f"seat {seat!r} waits this phase: its action must be DONE (-1), "
                            f"not {move.action}")
@@ -324,8 +330,9 @@ class SeatedEpisode:
         while not self.terminal_reason and not any(self.acting(s) for s in self.learners):
             self._play({})
         if self.terminal_reason and self.result is None:
-            identifiers = self.spec.identifiers()
-            self.document, self.result = self.tools.finish(None, **identifiers)
+            self.document, result = self.tools.finish(None, **self.spec.identifiers())
+            # As the harness's result line names it (harness.batch).
+            self.result = result.model_copy(update={"condition": self.condition})
         self._views = {}
 
     def _run(self, coroutine: Any) -> Any:
