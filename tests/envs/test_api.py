@@ -145,15 +145,14 @@ def test_rewards_are_the_benchmarks_own_and_the_last_info_is_the_result_line():
 
     environment = parallel_env(TASKS, condition="C0_blind", task_id=REAL,
                                reward={"legality": 0.5, "construct": 1.0})
-    observations, _ = environment.reset()
+    environment.reset()
     plan, total = oracle_plan(environment.episode.spec.config), 0.0
     failing = environment.episode.view("team").menu
     for call in plan:
         entry = next(o for o in environment.episode.view("team").menu if o.call == call)
-        observations, rewards, terminations, truncations, infos = environment.step(
-            {"team": entry.action_id})
+        rewards = environment.step({"team": entry.action_id})[1]
         total += rewards["team"]
-    observations, rewards, terminations, truncations, infos = environment.step({"team": -1})
+    _, rewards, terminations, truncations, infos = environment.step({"team": -1})
     total += rewards["team"]
     result = environment.state_result
     assert terminations == {"team": True} and truncations == {"team": False}
@@ -205,7 +204,7 @@ def test_seat_env_runs_under_gymnasium_vector(mode):
         observations, _ = vector.reset(seed=[1, 2])
         masks = observations["action_mask"]
         actions = np.array([int(np.flatnonzero(m)[-1]) - 1 for m in masks])
-        observations, rewards, terminations, truncations, _ = vector.step(actions)
+        observations, rewards, *_ = vector.step(actions)
         assert rewards.shape == (2,) and len(observations["prompt"]) == 2
         assert all("agent_1" in p for p in observations["prompt"])
     finally:
