@@ -7,6 +7,7 @@ from cocobench_agents.envs.parallel import CoCoBenchParallelEnv, env, parallel_e
 from cocobench_agents.envs.rewards import DEFAULT_WEIGHTS
 from cocobench_agents.envs.seat_env import SeatEnv
 from cocobench_agents.envs.seated import DONE, EnvError, SeatAction, SeatedEpisode
+from cocobench_agents.envs.trl_env import CoCoBenchTRLEnv, trl_environment
 
-__all__ = ["DEFAULT_WEIGHTS", "DONE", "CoCoBenchParallelEnv", "EnvError", "SeatAction",
-           "SeatEnv", "SeatedEpisode", "env", "parallel_env"]
+__all__ = ["DEFAULT_WEIGHTS", "DONE", "CoCoBenchParallelEnv", "CoCoBenchTRLEnv", "EnvError",
+           "SeatAction", "SeatEnv", "SeatedEpisode", "env", "parallel_env", "trl_environment"]
