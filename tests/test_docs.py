@@ -226,9 +226,13 @@ def _to_run(document: Path) -> bool:
 
 
 def _needs_shared(document: Path) -> list:
-    uses = "../shared" in document.read_text(encoding="utf-8")
-    return [pytest.mark.skipif(uses and not SHARED_DATA.is_dir(),
-                               reason=f"no shared data at {SHARED_DATA}")]
+    text = document.read_text(encoding="utf-8")
+    uses = "../shared" in text
+    marks = [pytest.mark.skipif(uses and not SHARED_DATA.is_dir(),
+                                reason=f"no shared data at {SHARED_DATA}")]
+    if "from cocobench_agents.envs import" in text:  # the env extra (tests/conftest.py)
+        marks.append(pytest.mark.needs_env)
+    return marks
 
 
 @pytest.mark.slow

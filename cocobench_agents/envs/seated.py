@@ -23,10 +23,15 @@ from benchmark_adapter.metrics import EpisodeResult
 from cocobench_agents.conditions import condition_name
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, ClientFactory, EpisodeSpec
 from cocobench_agents.graphs import PlannerContext, centralized, decentralized, planner_spec
-from cocobench_agents.graphs.centralized import land_decision
-from cocobench_agents.graphs.decentralized import board
+from cocobench_agents.graphs.centralized import build_centralized, land_decision
+from cocobench_agents.graphs.decentralized import board, build_decentralized
 from cocobench_agents.graphs.decision import decide, reply_decision
-from cocobench_agents.graphs.leader_worker import ask_leader, record_directives, team_lines
+from cocobench_agents.graphs.leader_worker import (
+    ask_leader,
+    build_leader_worker,
+    record_directives,
+    team_lines,
+)
 from cocobench_agents.graphs.nodes import land_decisions
 from cocobench_agents.graphs.registry import (
     AGENT_SEAT,
@@ -34,6 +39,7 @@ from cocobench_agents.graphs.registry import (
     LED_ROUND,
     STEP,
     TEAM_SEAT,
+    PlannerSpec,
     Seat,
 )
 from cocobench_agents.graphs.state import TEAM, team_history
@@ -45,8 +51,9 @@ from cocobench_agents.tools import EpisodeTools, stop_decision
 #: The action that chooses no menu entry: ``ACTION: DONE`` (also what a waiting seat sends).
 #: Menu ids start at 0, so DONE is -1.
 DONE = -1
-#: The planners the environment steps: their loop rules are the ones `SeatedEpisode` applies.
-STEPPED_PLANNERS = ("centralized", "decentralized", "decentralized-broadcast", "leader-worker")
+#: The graphs whose rules `SeatedEpisode` applies: a planner built by one of them is stepped.
+STEPPED_GRAPHS = frozenset(f"{build.__module__}:{build.__name__}" for build in (
+    build_centralized, build_decentralized, build_leader_worker))
 LEAD, WORK = "lead", "work"
 #: What an action off the menu does: raise, or be scored as an invalid id.
 OFF_MENU = ("error", "score")  # the two phases of a leader–worker round
@@ -84,6 +91,16 @@ class SeatView:
     sends_message: bool = False  # whether a message is read from it now
 
 
+def check_stepped(planner: PlannerSpec) -> None:
+    """Raise `EnvError` unless `planner` is built by a graph whose rules the environment
+    applies (C0's, D0/D1's, leader–worker's)."""
+    target = getattr(planner.build, "target", "").partition("(")[0]
+    if target not in STEPPED_GRAPHS or planner.calls_per_seat != 1:
+        raise EnvError(f"the environment steps the planners of the built-in C0, D0/D1 and "
+                       f"leader-worker graphs (whose rules it applies), not {planner.name!r} "
+                       f"({planner.code})")
+
+
 def _client_key(seat: str) -> str:
     """The `PlannerContext.clients` key of a seat: "*" for the team's planner and the leader."""
     return DEFAULT_MODEL_KEY if seat in (TEAM_SEAT, LEADER_SEAT) else seat
@@ -115,11 +132,9 @@ class SeatedEpisode:
             raise EnvError(f"off_menu must be {' or '.join(map(repr, OFF_MENU))}, not "
                            f"{off_menu!r}")
         self.off_menu = off_menu
-        if spec.planner not in STEPPED_PLANNERS:
-            raise EnvError(f"the environment steps the planners {', '.join(STEPPED_PLANNERS)}"
-                           f" (whose loop rules it applies), not {spec.planner!r}")
         self.spec, self.text = spec, text
         self.planner = planner_spec(spec.planner)
+        check_stepped(self.planner)
         self.loop = self.planner.loop_kind
         self.broadcast = self.planner.broadcast
         self.policy = centralized.POLICY if self.loop == STEP else decentralized.POLICY

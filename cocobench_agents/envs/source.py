@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from benchmark_adapter.tasks import TaskConfig, load_tasks
 from cocobench_agents.engine.resolve import find_task
-from cocobench_agents.envs.seated import STEPPED_PLANNERS, EnvError
+from cocobench_agents.envs.seated import EnvError, check_stepped
+from cocobench_agents.graphs import planner_spec
 from cocobench_agents.harness import Condition, parse_conditions
 
 
@@ -28,7 +29,5 @@ def one_condition(condition: str) -> Condition:
         raise EnvError(f"condition {condition!r} names {len(conditions)} conditions: an "
                        "environment takes one, such as D1_blind")
     chosen = conditions[0]
-    if chosen.planner not in STEPPED_PLANNERS:
-        raise EnvError(f"condition {condition!r}: the environment steps C0, D0, D1 and LW "
-                       f"(planners {', '.join(STEPPED_PLANNERS)}), not {chosen.planner!r}")
+    check_stepped(planner_spec(chosen.planner))
     return chosen

@@ -7,7 +7,7 @@ robots and leader) acts with ``{"action": id, "message": text}``. The observatio
 for DONE, entry ``id + 1`` for each id on the menu: the mask ``Discrete(…, start=-1)``
 samples with; for a broadcasting seat ``{"action": mask, "message": (length, characters)}``,
 the message part being the mask Gymnasium's ``Text.sample`` takes: ``(0, zeros)`` when the
-seat sends no message now), and under image conditions ``image``: the seat's camera frame as
+seat sends no message now), and under image conditions ``frame``: the seat's camera frame as
 an RGB array (the team's seat and the leader: every robot's frame, ``(robots, H, W, 3)``).
 """
 
@@ -68,7 +68,7 @@ class SeatSpaces:
         fields: dict[str, spaces.Space] = {"prompt": AnyText(TEXT_LIMIT),
                                            "menu": AnyText(TEXT_LIMIT), "action_mask": mask}
         if image_shape is not None:
-            fields["image"] = spaces.Box(0, 255, image_shape, np.uint8)
+            fields["frame"] = spaces.Box(0, 255, image_shape, np.uint8)
         self.observation = spaces.Dict(fields)
 
     def encode(self, view: SeatView, frames: list[bytes] | None) -> dict[str, Any]:
@@ -90,7 +90,7 @@ class SeatSpaces:
         obs: dict[str, Any] = {"prompt": view.prompt, "menu": "\n".join(view.menu_lines),
                                "action_mask": mask}
         if self.image_shape is not None:
-            obs["image"] = self._image(frames or [])
+            obs["frame"] = self._image(frames or [])
         return obs
 
     def _image(self, frames: list[bytes]) -> np.ndarray:

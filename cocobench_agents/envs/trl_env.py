@@ -14,8 +14,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
+from benchmark_adapter.vocabulary import BLIND, DEMO_SUITE
+from cocobench_agents.conditions import condition_name
 from cocobench_agents.envs.seat_env import SeatEnv
 from cocobench_agents.envs.seated import DONE, EnvError
+from cocobench_agents.graphs import DEFAULT_PLANNER, planner_spec
 from cocobench_agents.graphs.registry import LEADER_SEAT
 from cocobench_agents.prompts import DEFAULT_SUITE
 
@@ -25,8 +28,8 @@ class CoCoBenchTRLEnv:
     `partner` model. Configure it with `trl_environment` (the class attributes below are its
     settings; the defaults play C0 on the built-in demo suite against `greedy`)."""
 
-    source: ClassVar[str] = "demo"
-    condition: ClassVar[str] = "C0_blind"
+    source: ClassVar[str] = DEMO_SUITE
+    condition: ClassVar[str] = condition_name(planner_spec(DEFAULT_PLANNER).code, BLIND)
     seat: ClassVar[str] = "team"
     partner: ClassVar[str] = "greedy"
     task_id: ClassVar[str | None] = None

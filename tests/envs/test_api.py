@@ -47,7 +47,7 @@ def test_image_conditions_pass_the_api_test_and_carry_frames(condition):
 
     environment = parallel_env(TASKS, condition=condition, task_id=REAL)
     observations, _ = environment.reset(seed=0)
-    image = next(iter(observations.values()))["image"]
+    image = next(iter(observations.values()))["frame"]
     assert image.dtype == np.uint8 and image.max() > 0
     parallel_api_test(environment, num_cycles=20)
 
