@@ -17,7 +17,7 @@ from cocobench_agents.envs.seated import EnvError, SeatAction, SeatedEpisode, se
 from cocobench_agents.envs.source import instances, one_condition
 from cocobench_agents.envs.spaces import SeatSpaces
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
-from cocobench_agents.graphs import planner_spec
+from cocobench_agents.graphs import ORACLE, planner_spec
 from cocobench_agents.graphs.registry import AGENT_SEAT, LEADER_SEAT, TEAM_SEAT
 from cocobench_agents.models import ModelPool
 from cocobench_agents.prompts import DEFAULT_SUITE
@@ -49,7 +49,8 @@ class CoCoBenchParallelEnv(ParallelEnv):
         self.model, self.partners, self.off_menu = model, dict(partners or {}), off_menu
         self.pool = ModelPool()
         for spec in dict.fromkeys(self.partners.values()):
-            self.pool.validate(spec)
+            if spec != ORACLE:  # the reference plan, not a model (oracle_partner.py)
+                self.pool.validate(spec)
         self.render_mode = None
         planner = planner_spec(self.condition.planner)
         self.possible_agents = _all_seats(self.configs, self.condition.planner)

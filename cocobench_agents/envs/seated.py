@@ -21,8 +21,15 @@ from typing import Any
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.metrics import EpisodeResult
 from cocobench_agents.conditions import condition_name
+from cocobench_agents.envs.oracle_partner import OracleClient, OraclePlan
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, ClientFactory, EpisodeSpec
-from cocobench_agents.graphs import PlannerContext, centralized, decentralized, planner_spec
+from cocobench_agents.graphs import (
+    ORACLE,
+    PlannerContext,
+    centralized,
+    decentralized,
+    planner_spec,
+)
 from cocobench_agents.graphs.centralized import build_centralized, land_decision
 from cocobench_agents.graphs.decentralized import board, build_decentralized
 from cocobench_agents.graphs.decision import decide, reply_decision
@@ -119,7 +126,8 @@ class SeatedEpisode:
     """One episode of `spec` (a built-in C0/D0/D1/leader-worker planner) whose seats act
     through `step`. `partners` maps seat names to the model specs that play those seats (any
     the harness runs: ``greedy``, ``random``, ``scripted:FILE``, ``replay:RUN``, a LiteLLM
-    model), their clients made by `pool` afresh for each episode; `text=False` skips
+    model; or ``oracle``: the reference plan, `oracle_partner.py`), their clients made by
+    `pool` afresh for each episode; `text=False` skips
     rendering prompts (observations then carry no prompt text, and the trajectory's decisions
     name the empty prompt). An action off the seat's menu is an `EnvError`; with
     ``off_menu="score"`` it is scored as a model's reply naming an id not on its menu is (an
@@ -160,8 +168,10 @@ class SeatedEpisode:
         self.tools = EpisodeTools(self._episode, self._suite, obs_mode=self.spec.obs_mode,
                                   stable_ids=self.spec.stable_ids)
         self.pool.release(self.spec.episode)  # fresh clients: they keep state per episode
-        clients = {_client_key(s): self.pool.client(model, episode=self.spec.episode,
-                                                    agent=_client_agent(s))
+        plan = OraclePlan(self._episode) if ORACLE in self.partners.values() else None
+        clients = {_client_key(s): OracleClient(plan, _client_agent(s)) if model == ORACLE
+                   else self.pool.client(model, episode=self.spec.episode,
+                                         agent=_client_agent(s))
                    for s, model in self.partners.items()}
         self.ctx = PlannerContext(tools=self.tools, clients=clients, budget=self.spec.budget,
                                   sample_index=self.spec.sample_index)

@@ -273,3 +273,25 @@ def test_unknown_names_are_told():
                 task_id=REAL)
     with pytest.raises(Exception, match="unknown task 'nope'"):
         parallel_env(TASKS, condition="C0_blind", task_id="nope")
+
+
+@pytest.mark.parametrize("condition", ("D0_blind", "D1_blind", "LW_blind"))
+def test_an_oracle_partner_plays_its_part_of_the_reference_plan(condition):
+    from cocobench_agents.envs import SeatEnv
+    from cocobench_agents.envs.oracle_partner import OraclePlan
+
+    seat_env = SeatEnv(TASKS, condition=condition, seat="agent_2", partner="oracle",
+                       task_id=REAL)
+    seat_env.reset(seed=0)
+    episode = seat_env.team.episode
+    plan = OraclePlan(episode.episode)  # the learner follows the same plan for its calls
+    terminated = truncated = False
+    while not (terminated or truncated):
+        call = plan.next_call()
+        entry = next((o for o in episode.view("agent_2").menu if o.call == call), None)
+        choice = entry.action_id if entry else -1
+        action = choice if condition == "D0_blind" else {"action": choice, "message": ""}
+        _, _, terminated, truncated, info = seat_env.step(action)
+    assert info["task_success"] == 1
+    decisions = episode.document["planner_decisions"]
+    assert {d["model"] for d in decisions if d["agent"] == "agent_1"} == {"oracle"}
