@@ -91,3 +91,32 @@ def test_a_random_d1_episode_scores_as_its_scripted_run(tmp_path):
                                               tmp_path, 0)
     assert differences(env_result, run_result) == {}
     assert env_result.planner == "decentralized-broadcast"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("condition", ["C0_blind", "LW_blind"])
+def test_the_result_line_of_cocobench_run_is_the_environments_last_info(condition, tmp_path):
+    """Through the command itself: `cocobench run --model scripted:FILE` writes the result
+    line the environment's last `info` holds (times and the run folder's own keys aside)."""
+    import subprocess
+    import sys
+
+    from cocobench_agents.envs import parallel_env
+
+    config = load_tasks(SHARED_TASKS)[3]
+    script = tmp_path / "script.json"
+    environment = parallel_env(str(SHARED_TASKS), condition=condition, task_id=config.task_id,
+                               max_steps=12, model=f"scripted:{script}")
+    environment.reset()
+    replies = play(environment.episode, random_policy(7))
+    info = environment.state_result.model_dump(mode="json")  # what the last info holds
+    script.write_text(json.dumps(replies))
+    out = tmp_path / "run"
+    subprocess.run([sys.executable, "-m", "cocobench_agents.cli", "run", "--task",
+                    str(SHARED_TASKS / f"{config.task_id}.json"), "--model",
+                    f"scripted:{script}", "--conditions", condition, "--max-steps", "12",
+                    "--out", str(out)], check=True, capture_output=True)
+    line = json.loads((out / "results.jsonl").read_text().splitlines()[0])
+    own = {"elapsed_s", "trajectory", "epoch"}
+    assert {k: _strip(v) for k, v in info.items() if k not in own} == \
+        {k: _strip(line[k]) for k in info if k not in own}
