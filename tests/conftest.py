@@ -71,6 +71,8 @@ EXPORT_INSTALL = "pip install -e '.[export]' 'datasets>=4'"
 EXTRAS = (
     Extra("needs_ray", module_missing("ray", "pip install -e '.[ray]'")),
     Extra("needs_thor", module_missing("ai2thor", "pip install -e '.[thor]'")),
+    Extra("needs_env", module_missing("pettingzoo", "pip install -e '.[env]'")),
+    Extra("needs_trl", module_missing("trl", "pip install -e '.[env,trl]'")),
     Extra("needs_browser", browser_missing),
     Extra("needs_langgraph_cli", langgraph_cli_missing),
     Extra("llm", llm_missing),

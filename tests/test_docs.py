@@ -231,10 +231,14 @@ DOCUMENT_EXTRAS = {"environments.md": ("needs_export",)}
 
 
 def _needs_shared(document: Path) -> list:
-    uses = "../shared" in document.read_text(encoding="utf-8")
-    extras = [getattr(pytest.mark, marker) for marker in DOCUMENT_EXTRAS.get(document.name, ())]
-    return [pytest.mark.skipif(uses and not SHARED_DATA.is_dir(),
-                               reason=f"no shared data at {SHARED_DATA}"), *extras]
+    text = document.read_text(encoding="utf-8")
+    uses = "../shared" in text
+    marks = [pytest.mark.skipif(uses and not SHARED_DATA.is_dir(),
+                                reason=f"no shared data at {SHARED_DATA}")]
+    marks += [getattr(pytest.mark, marker) for marker in DOCUMENT_EXTRAS.get(document.name, ())]
+    if "from cocobench_agents.envs import" in text:  # the env extra (tests/conftest.py)
+        marks.append(pytest.mark.needs_env)
+    return marks
 
 
 @pytest.mark.slow

@@ -34,6 +34,9 @@ def hide_module(name: str):
 HIDE = {
     "needs_ray": (hide_module("ray"), "ray is not installed (pip install -e '.[ray]')"),
     "needs_thor": (hide_module("ai2thor"), "ai2thor is not installed (pip install -e '.[thor]')"),
+    "needs_env": (hide_module("pettingzoo"),
+                  "pettingzoo is not installed (pip install -e '.[env]')"),
+    "needs_trl": (hide_module("trl"), "trl is not installed (pip install -e '.[env,trl]')"),
     "needs_browser": (lambda monkeypatch: monkeypatch.setenv("PATH", ""),
                       "Debian's chromium is not installed (apt-get install chromium)"),
     "needs_langgraph_cli": (

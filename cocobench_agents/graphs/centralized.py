@@ -23,9 +23,16 @@ async def choose(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[
 
 
 async def act(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
-    """Land the chosen call; any decision without a call ends the episode (no re-prompt)."""
-    tools = runtime.context.tools
-    decision = state["pending"][0]
+    """Land the chosen call (`land_decision`)."""
+    return land_decision(runtime.context, state, state["pending"][0])
+
+
+def land_decision(ctx: PlannerContext, state: PlannerState, decision: dict[str, Any]
+                  ) -> dict[str, Any]:
+    """Record the step's decision and land its call; any decision without a call ends the
+    episode (no re-prompt). The state update; the training environment
+    (`cocobench_agents.envs`) steps a C0 episode with this very function."""
+    tools = ctx.tools
     tools.record(decision, model_call=decision["status"] != "no_actions")
     call = decision["parsed_call"]
     if not call:
@@ -33,8 +40,7 @@ async def act(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str
         return {"pending": None, "terminal_reason": decision["terminal_reason"]}
     result = tools.land(call, decision=decision)
     team = [*team_history(state), history_line(call, result.success, result.errorMessage)]
-    return {"pending": None, "history": {TEAM: team},
-            **observe_next(runtime.context, state)}
+    return {"pending": None, "history": {TEAM: team}, **observe_next(ctx, state)}
 
 
 def build_centralized() -> StateGraph:

@@ -5,6 +5,7 @@ With `broadcast` (D1) each agent may add a `MSG:` line that its teammates read n
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from langgraph.graph import END, START, StateGraph
@@ -30,13 +31,20 @@ async def fan_out(state: PlannerState) -> list[Send] | str:
             for a in state["agents"]]
 
 
+def board(messages: Sequence[dict[str, Any]], directive: str | None) -> list[dict[str, Any]]:
+    """What an agent's prompt shows on its message board: the posted messages and, under
+    leader–worker, the leader's instruction to it last."""
+    shown = list(messages)
+    if directive:
+        shown.append({"agent": "leader", "text": directive})
+    return shown
+
+
 def make_decide_agent(broadcast: bool):
     """The per-agent decision node (a branch of the round's fan-out)."""
     async def decide_agent(branch: dict[str, Any], runtime: Runtime[PlannerContext]
                            ) -> dict[str, Any]:
-        messages = list(branch["messages"])
-        if branch.get("directive"):  # leader–worker: the leader's word comes last
-            messages.append({"agent": "leader", "text": branch["directive"]})
+        messages = board(branch["messages"], branch.get("directive"))
         decision = await decide(runtime.context, branch["agent"], policy=POLICY,
                                 history=branch["history"], messages=messages,
                                 broadcast=broadcast or bool(branch.get("directive")))

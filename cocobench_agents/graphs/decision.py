@@ -11,12 +11,13 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from benchmark_adapter.menu import MenuEntry
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.models.human import HumanTurn
-from cocobench_agents.models.protocol import ModelError, ModelRequest
+from cocobench_agents.models.protocol import ModelError, ModelReply, ModelRequest
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import parse_message, parse_reply
-from cocobench_agents.tools import model_decision, stop_decision
+from cocobench_agents.tools import EpisodeTools, model_decision, stop_decision
 
 
 def accepts_images(client: object) -> bool:
@@ -50,10 +51,20 @@ async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
         return model_decision(policy=policy, model=client.name, agent=agent,
                               step_index=tools.step_index, prompt=prompt, parsed=None,
                               call=None, error=error)
+    return reply_decision(tools, agent, menu, prompt, reply, policy=policy,
+                          model=client.name, broadcast=broadcast)
+
+
+def reply_decision(tools: EpisodeTools, agent: str | None, menu: Sequence[MenuEntry],
+                   prompt: str, reply: ModelReply, *, policy: str, model: str,
+                   broadcast: bool) -> dict[str, Any]:
+    """The decision record of `reply`, a model's answer to `prompt` for `agent` with `menu`:
+    its action parsed against the menu, and under `broadcast` its message. The training
+    environment (`cocobench_agents.envs`) turns a seat's action into its decision here."""
     parsed = parse_reply(reply.text, [e.action_id for e in menu])
     call = (next((e.call for e in menu if e.action_id == parsed.action_id), None)
             if parsed.status == "action" else None)
-    return model_decision(policy=policy, model=client.name, agent=agent,
+    return model_decision(policy=policy, model=model, agent=agent,
                           step_index=tools.step_index, prompt=prompt, parsed=parsed,
                           call=call, reply=reply,
                           message=parse_message(reply.text) if broadcast else "")

@@ -19,9 +19,9 @@ from cocobench_agents.graphs.decentralized import add_round, fan_out
 from cocobench_agents.graphs.decision import accepts_images
 from cocobench_agents.graphs.nodes import continue_or_end
 from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
-from cocobench_agents.models.protocol import ModelError, ModelRequest
+from cocobench_agents.models.protocol import ModelError, ModelReply, ModelRequest
 from cocobench_agents.prompts import history_line
-from cocobench_agents.tools import prompt_hash, reply_fields
+from cocobench_agents.tools import EpisodeTools, prompt_hash, reply_fields
 
 POLICY = "leader"
 DIRECTIVE = re.compile(r"^\s*(agent_\d+)\s*:\s*(.+?)\s*$", re.MULTILINE)
@@ -29,34 +29,54 @@ DIRECTIVE = re.compile(r"^\s*(agent_\d+)\s*:\s*(.+?)\s*$", re.MULTILINE)
 
 async def lead(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
     """Ask the leader model for this round's instruction to each robot."""
-    ctx = runtime.context
-    tools = ctx.tools
+    return {"directives": await ask_leader(runtime.context, team_history(state))}
+
+
+async def ask_leader(ctx: PlannerContext, history: list[str]) -> dict[str, str]:
+    """The leader model's instruction to each robot, given the team's `history`; recorded."""
     client = ctx.client_for(None)
-    prompt, images = tools.leader_prompt(team_history(state), accepts_images(client))
-    record: dict[str, Any] = {"policy": POLICY, "model": client.name, "agent": None,
-                              "step_index": tools.step_index, "status": "plan",
-                              "terminal_reason": None, "prompt_hash": prompt_hash(prompt)}
-    directives: dict[str, str] = {}
+    prompt, images = ctx.tools.leader_prompt(history, accepts_images(client))
     try:
         request = ModelRequest(prompt=prompt, images=images, sample_index=ctx.sample_index)
         reply = await ctx.retry_policy.complete(client, request)
+    except ModelError as error:  # a silent leader leaves the workers on their own
+        return record_directives(ctx.tools, client.name, prompt, error=error)
+    return record_directives(ctx.tools, client.name, prompt, reply=reply)
+
+
+def record_directives(tools: EpisodeTools, model: str, prompt: str, *,
+                      reply: ModelReply | None = None, error: ModelError | None = None
+                      ) -> dict[str, str]:
+    """Record the leader's decision (its reply, or the error that silenced it) and return
+    its instruction to each robot named in the reply (``agent_N: …`` lines, 200 characters
+    each). The training environment's leader seat (`cocobench_agents.envs`) goes through
+    here too."""
+    record: dict[str, Any] = {"policy": POLICY, "model": model, "agent": None,
+                              "step_index": tools.step_index, "status": "plan",
+                              "terminal_reason": None, "prompt_hash": prompt_hash(prompt)}
+    directives: dict[str, str] = {}
+    if reply is not None:
         directives = {a: text[:200] for a, text in DIRECTIVE.findall(reply.text)
                       if a in tools.agents}
         record.update(reply_fields(reply), directives=directives)
-    except ModelError as error:  # a silent leader leaves the workers on their own
+    elif error is not None:
         record.update(status="backend_error", error=str(error), error_kind=error.kind)
     tools.record(record)
-    return {"directives": directives}
+    return directives
 
 
 async def remember_team(state: PlannerState, runtime: Runtime[PlannerContext]
                         ) -> dict[str, Any]:
     """Keep the team-wide history the leader reads, from the steps landed so far."""
-    items = runtime.context.tools.episode.items
-    lines = [history_line(i["label"], i["skill_result"]["success"],
-                          i["skill_result"]["errorMessage"])
-             for i in items if "skill_result" in i]
-    return {"history": {**(state.get("history") or {}), TEAM: lines}}
+    return {"history": {**(state.get("history") or {}),
+                        TEAM: team_lines(runtime.context.tools)}}
+
+
+def team_lines(tools: EpisodeTools) -> list[str]:
+    """The team-wide history lines of the steps landed so far, oldest first."""
+    return [history_line(i["label"], i["skill_result"]["success"],
+                         i["skill_result"]["errorMessage"])
+            for i in tools.episode.items if "skill_result" in i]
 
 
 def build_leader_worker() -> StateGraph:

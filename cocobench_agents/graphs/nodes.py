@@ -28,16 +28,23 @@ def observe_next(ctx: PlannerContext, state: PlannerState) -> dict[str, Any]:
 
 
 async def land_round(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
-    """Record the round's decisions in agent order, then land their calls in that order.
+    """Land the round's decisions (`land_decisions`)."""
+    return land_decisions(runtime.context, state, state.get("pending") or [])
+
+
+def land_decisions(ctx: PlannerContext, state: PlannerState, pending: list[dict[str, Any]]
+                   ) -> dict[str, Any]:
+    """Record a round's decisions in agent order, then land their calls in that order; the
+    state update. The round rule of every round-loop planner, and of the training
+    environment (`cocobench_agents.envs`), which steps an episode with this very function.
 
     A round in which nobody acts ends the episode, recorded with the last agent's decision
     (the reference's rule). The budget can cut a round short; messages of agents whose
     call landed are posted to the board.
     """
-    ctx = runtime.context
     tools = ctx.tools
     order = {a: i for i, a in enumerate(tools.agents)}
-    decisions = sorted(state.get("pending") or [], key=lambda d: order.get(d.get("agent"), -1))
+    decisions = sorted(pending, key=lambda d: order.get(d.get("agent"), -1))
     for d in decisions:
         tools.record(d, model_call=d["status"] != "no_actions")
     if not any(d["parsed_call"] for d in decisions):

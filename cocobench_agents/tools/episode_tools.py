@@ -92,6 +92,10 @@ class EpisodeTools:
             view = self._views[agent] = _MenuView(source, entries, agent is None)
         return view
 
+    def menu_lines(self, agent: str | None = None) -> list[str]:
+        """`agent`'s menu as its prompt lists it."""
+        return list(self._menu_view(agent).lines)
+
     def prompt(self, agent: str | None, history: Sequence[str],
                messages: Sequence[Mapping[str, str]] = (), broadcast: bool = False,
                with_images: bool = True) -> tuple[str, tuple[bytes, ...], list[MenuEntry]]:
@@ -130,6 +134,11 @@ class EpisodeTools:
             history=history, inventories=snap.inventories, obs_mode=self.obs_mode,
             messages=messages,
         )
+
+    def images(self, agent: str | None) -> tuple[bytes, ...]:
+        """The frames a decision of `agent` shows (None: the team's merged view); none in
+        blind mode."""
+        return self._images(agent)
 
     def _images(self, agent: str | None) -> tuple[bytes, ...]:
         if self.obs_mode != IMAGE:

@@ -1,0 +1,121 @@
+"""Training-environment throughput: environment steps per second on one core, and reset time.
+
+Plays the PettingZoo parallel environment (`cocobench_agents.envs`) with random legal actions
+(drawn from each seat's action mask) under blind conditions, with the prompt text rendered
+(``text=True``, what an LLM policy reads) and without (``text=False``, for policies over the
+menu and mask), and prints medians over repeated runs:
+- environment steps/s (one step: every acting seat's move, landed by the planner's rules) and
+  the ratio to AI2-THOR's 13–22 actions/s per process (aim: >= 1,000 with text, >= 5,000
+  without);
+- landed skill steps/s (a D-round lands up to one call per robot);
+- the environment's own time per step: all but the simulator's `Episode.step` (random
+  actions are far costlier for the simulator than an oracle's plan: a `Find` of an object
+  out of view searches poses), so the figure the environment itself adds is shown apart;
+- reset time in milliseconds (aim: < 5 ms).
+
+Usage: python bench/env.py [--repeats N] [--steps N] [--source SOURCE] [--condition C]…
+(needs the env extra: pip install -e '.[env]')
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmark_adapter.episode import Episode
+from cocobench_agents.envs import parallel_env
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "cocobench-data" / "tasks"
+THOR_ACTIONS_PER_S = (13, 22)
+
+
+def random_actions(observations: dict, rng: np.random.Generator) -> dict:
+    """A random legal move per seat: a menu id on its mask (DONE when only DONE is)."""
+    actions = {}
+    for seat, observation in observations.items():
+        mask = observation["action_mask"]
+        ids = np.flatnonzero(mask if isinstance(mask, np.ndarray) else mask["action"]) - 1
+        menu = ids[1:] if len(ids) > 1 else ids
+        choice = int(rng.choice(menu))
+        actions[seat] = choice if isinstance(mask, np.ndarray) else \
+            {"action": choice, "message": ""}
+    return actions
+
+
+class SimulatorClock:
+    """Times the simulator's part: every `Episode.step` (the class's method, wrapped)."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+        step = Episode.step
+
+        def timed(*args, **kwargs):
+            started = time.perf_counter()
+            try:
+                return step(*args, **kwargs)
+            finally:
+                self.seconds += time.perf_counter() - started
+        Episode.step = timed
+
+
+def run(environment, steps: int, seed: int) -> tuple[float, int, int, list[float]]:
+    """Seconds, environment steps and landed skill steps of `steps` steps (resetting at each
+    episode's end), and the time of each reset."""
+    rng = np.random.default_rng(seed)
+    resets: list[float] = []
+    started = time.perf_counter()
+    observations, _ = environment.reset(seed=seed)
+    resets.append(time.perf_counter() - started)
+    landed = 0
+    begun = time.perf_counter()
+    for _ in range(steps):
+        if not environment.agents:
+            landed += environment.episode.tools.step_index
+            t = time.perf_counter()
+            observations, _ = environment.reset()
+            resets.append(time.perf_counter() - t)
+        observations, *_ = environment.step(random_actions(observations, rng))
+    landed += environment.episode.tools.step_index
+    return time.perf_counter() - begun, steps, landed, resets
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument("--source", default=str(SHARED))
+    parser.add_argument("--condition", action="append",
+                        help="conditions to measure (default: C0_blind, D1_blind)")
+    args = parser.parse_args()
+    print(f"one core (pid {os.getpid()}), {args.steps} steps per run, median of "
+          f"{args.repeats} runs, source {args.source}")
+    clock = SimulatorClock()
+    for condition in args.condition or ["C0_blind", "D1_blind"]:
+        for text in (True, False):
+            environment = parallel_env(args.source, condition=condition, text=text)
+            run(environment, 200, 0)  # warm: every instance's world built once
+            rates, skill_rates, resets, own = [], [], [], []
+            for repeat in range(args.repeats):
+                clock.seconds = 0.0
+                seconds, steps, landed, reset_times = run(environment, args.steps, repeat)
+                own.append(1e6 * (seconds - clock.seconds) / steps)
+                rates.append(steps / seconds)
+                skill_rates.append(landed / seconds)
+                resets.extend(reset_times)
+            rate = statistics.median(rates)
+            low, high = (rate / a for a in reversed(THOR_ACTIONS_PER_S))
+            aim = 1000 if text else 5000
+            print(f"{condition:9} text={'on ' if text else 'off'}  env steps/s "
+                  f"{rate:8,.0f} (aim >= {aim:,})  x{low:,.0f}–{high:,.0f} AI2-THOR  "
+                  f"skill steps/s {statistics.median(skill_rates):8,.0f}  env's own "
+                  f"{statistics.median(own):5.0f} µs/step  reset "
+                  f"{1000 * statistics.median(resets):6.2f} ms (aim < 5)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,250 @@
+"""The PettingZoo environment: every seat of a condition learns (`parallel_env`, `env`)."""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+from pettingzoo import ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec
+
+from benchmark_adapter.tasks import TaskConfig
+from benchmark_adapter.vocabulary import IMAGE
+from cocobench_agents.envs.rewards import reward_weights, step_reward
+from cocobench_agents.envs.seated import EnvError, SeatAction, SeatedEpisode, seat_name
+from cocobench_agents.envs.source import instances, one_condition
+from cocobench_agents.envs.spaces import SeatSpaces
+from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
+from cocobench_agents.graphs import ORACLE, planner_spec
+from cocobench_agents.graphs.registry import AGENT_SEAT, LEADER_SEAT, TEAM_SEAT
+from cocobench_agents.models import ModelPool
+from cocobench_agents.prompts import DEFAULT_SUITE
+
+#: The largest menu id an action space holds by default (menus of the suites stay far below).
+DEFAULT_MAX_MENU = 255
+#: The model name the learning seats' decisions and the result line record by default.
+DEFAULT_MODEL_NAME = "env"
+
+
+class CoCoBenchParallelEnv(ParallelEnv):
+    """CoCoBench as a PettingZoo `ParallelEnv`: the agents are the seats of `condition`
+    (``team`` for C0; one per robot for D0/D1; ``leader`` and one per robot for
+    leader–worker, whose rounds take two steps: the leader's, then the robots'). See
+    docs/environments.md."""
+
+    metadata: ClassVar[dict[str, Any]] = {"name": "cocobench_v0", "render_modes": [],
+                                          "is_parallelizable": True}
+
+    def __init__(self, source: str, *, condition: str, task_id: str | None = None,
+                 prompt_suite: str = DEFAULT_SUITE, reward: Mapping[str, float] | None = None,
+                 seed: int | None = None, text: bool = True, max_steps: int | None = None,
+                 max_menu: int = DEFAULT_MAX_MENU, model: str = DEFAULT_MODEL_NAME,
+                 partners: Mapping[str, str] | None = None, off_menu: str = "error") -> None:
+        self.condition = one_condition(condition)
+        self.configs = instances(source, task_id)
+        self.weights = reward_weights(reward)
+        self.prompt_suite, self.text, self.max_steps = prompt_suite, text, max_steps
+        self.model, self.partners, self.off_menu = model, dict(partners or {}), off_menu
+        self.pool = ModelPool()
+        for spec in dict.fromkeys(self.partners.values()):
+            if spec != ORACLE:  # the reference plan, not a model (oracle_partner.py)
+                self.pool.validate(spec)
+        self.render_mode = None
+        planner = planner_spec(self.condition.planner)
+        self.possible_agents = _all_seats(self.configs, self.condition.planner)
+        self.learning = [s for s in self.possible_agents if s not in self.partners]
+        robots = max(len(c.agent_ids) for c in self.configs)
+        self._frame = _frame_shape(self.configs[0]) if self.condition.obs_mode == IMAGE else None
+        self._spaces = {seat: SeatSpaces(
+            seat, max_menu=max_menu, broadcasts=planner.broadcast,
+            image_shape=self._image_shape(seat, robots)) for seat in self.learning}
+        self._episodes: dict[str, SeatedEpisode] = {}
+        self._rng = np.random.default_rng(seed)
+        self.episode: SeatedEpisode | None = None
+        self.agents: list[str] = []
+
+    # -- PettingZoo's interface ----------------------------------------------------------
+
+    @functools.cache  # noqa: B019 - PettingZoo wants the same space object every call
+    def observation_space(self, agent: str):
+        return self._seat_spaces(agent).observation
+
+    @functools.cache  # noqa: B019
+    def action_space(self, agent: str):
+        return self._seat_spaces(agent).action
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Start an episode: the instance `options["task_id"]` names, else one drawn with
+        the seeded generator (the only one when the source holds one)."""
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        self.episode = self._episode_for(self._pick((options or {}).get("task_id")))
+        self.episode.reset()
+        self.agents = [s for s in self.episode.seats if s in self.learning]
+        return self._observations(), {s: self._info() for s in self.agents}
+
+    def step(self, actions: Mapping[str, Any]):
+        """Play one phase with the seats' `actions`."""
+        episode = self._live()
+        unknown = sorted(set(actions) - set(self.agents))
+        if unknown:
+            raise EnvError(f"no live seat {unknown[0]!r}: the seats are "
+                           f"{', '.join(self.agents) or 'none (the episode has ended)'}")
+        moves = {s: self._seat_spaces(s).decode(a) for s, a in actions.items()}
+        before, items = episode.progress(), len(episode.episode.items)
+        episode.step(moves)
+        return self._outcome(episode, before, items)
+
+    def close(self) -> None:
+        for episode in self._episodes.values():
+            episode.close()
+
+    # -- internals ---------------------------------------------------------------------
+
+    def _outcome(self, episode: SeatedEpisode, before: float, items: int):
+        landed = episode.landed(items)
+        gain = episode.progress() - before
+        seats = self.agents
+        rewards = {s: step_reward(self.weights, progress_gain=gain,
+                                  failed_calls=_failed(landed, s), result=episode.result)
+                   for s in seats}
+        truncated = episode.finished and episode.terminal_reason == "max_steps"
+        terminations = dict.fromkeys(seats, episode.finished and not truncated)
+        truncations = dict.fromkeys(seats, truncated)
+        observations = self._observations()
+        infos = {s: self._info() for s in seats}
+        if episode.finished:
+            self.agents = []
+        return observations, rewards, terminations, truncations, infos
+
+    def _observations(self) -> dict[str, Any]:
+        episode = self._live()
+        image = episode.spec.obs_mode == IMAGE
+        return {s: self._seat_spaces(s).encode(episode.view(s),
+                                               self._frames(s) if image else None)
+                for s in self.agents}
+
+    def _frames(self, seat: str) -> list[bytes]:
+        episode = self._live()
+        agents = episode.spec.config.agent_ids if seat in (TEAM_SEAT, LEADER_SEAT) else [seat]
+        return [episode.episode.frame(a) for a in agents]
+
+    def _info(self) -> dict[str, Any]:
+        episode = self._live()
+        if episode.result is not None:  # the episode's result line
+            return episode.result.model_dump(mode="json")
+        return {"task_id": episode.spec.config.task_id, "step_index": episode.tools.step_index,
+                "phase": episode.phase, "progress": episode.progress()}
+
+    def _live(self) -> SeatedEpisode:
+        if self.episode is None:
+            raise EnvError("no episode yet: call reset() first")
+        if self.episode.finished and not self.agents and self.episode.result is None:
+            raise EnvError("the episode has ended: call reset()")
+        return self.episode
+
+    def _seat_spaces(self, seat: str) -> SeatSpaces:
+        spaces = self._spaces.get(seat)
+        if spaces is None:
+            raise EnvError(f"no learning seat {seat!r}: the seats are "
+                           f"{', '.join(self.learning)}")
+        return spaces
+
+    def _pick(self, task_id: str | None) -> TaskConfig:
+        if task_id is not None:
+            found = [c for c in self.configs if c.task_id == task_id]
+            if not found:
+                raise EnvError(f"unknown task_id {task_id!r} in options: the source's "
+                               f"instances are {', '.join(c.task_id for c in self.configs[:4])}"
+                               "…")
+            return found[0]
+        return self.configs[int(self._rng.integers(len(self.configs)))]
+
+    def _episode_for(self, config: TaskConfig) -> SeatedEpisode:
+        episode = self._episodes.get(config.task_id)
+        if episode is None:
+            spec = EpisodeSpec(config, planner=self.condition.planner,
+                               models={DEFAULT_MODEL_KEY: self.model},
+                               obs_mode=self.condition.obs_mode,
+                               prompt_suite=self.prompt_suite, max_steps=self.max_steps)
+            partners = {s: c for s, c in self.partners.items()
+                        if s in _seats_of(config, self.condition.planner)}
+            episode = self._episodes[config.task_id] = SeatedEpisode(
+                spec, partners=partners, pool=self.pool, text=self.text,
+                off_menu=self.off_menu)
+        return episode
+
+    def _image_shape(self, seat: str, robots: int) -> tuple[int, ...] | None:
+        if self._frame is None:
+            return None
+        return (robots, *self._frame) if seat in (TEAM_SEAT, LEADER_SEAT) else self._frame
+
+    @property
+    def state_result(self):
+        """The scored result of the ended episode (None before its end)."""
+        return self.episode.result if self.episode is not None else None
+
+
+def _failed(landed: list[dict[str, Any]], seat: str) -> int:
+    """How many of the landed steps `seat` answers for failed."""
+    if seat == LEADER_SEAT:
+        return 0
+    return sum(1 for item in landed if not item["skill_result"]["success"]
+               and (seat == TEAM_SEAT or item["policy_decision"].get("agent") == seat))
+
+
+def _seats_of(config: TaskConfig, planner: str) -> list[str]:
+    return [seat_name(s) for s in planner_spec(planner).seats(config.agent_ids)]
+
+
+def _all_seats(configs: list[TaskConfig], planner: str) -> list[str]:
+    seats = dict.fromkeys(s for c in configs for s in _seats_of(c, planner))
+    roles = [s for s in seats if s in (TEAM_SEAT, LEADER_SEAT)]
+    robots = sorted((s for s in seats if s not in roles), key=_robot_order)
+    return [*roles, *robots]
+
+
+def _robot_order(agent: str) -> tuple[int, str]:
+    tail = agent.rpartition("_")[2]
+    return (int(tail) if tail.isdigit() else 0, agent)
+
+
+def _frame_shape(config: TaskConfig) -> tuple[int, ...]:
+    """The shape of one robot's frame (rendered once)."""
+    import io
+
+    from PIL import Image
+
+    from benchmark_adapter.episode import Episode
+
+    world = Episode(config)
+    world.reset()
+    array = np.asarray(Image.open(io.BytesIO(world.frame(config.agent_ids[0]))).convert("RGB"))
+    return tuple(array.shape)
+
+
+def parallel_env(source: str, *, condition: str, task_id: str | None = None,
+                 prompt_suite: str = DEFAULT_SUITE, reward: Mapping[str, float] | None = None,
+                 seed: int | None = None, **options: Any) -> CoCoBenchParallelEnv:
+    """CoCoBench as a PettingZoo parallel environment: `source` is anything `--task` /
+    `--suite` takes, `condition` one condition code (``D1_blind``). Options: ``text``
+    (render prompts; default True), ``max_steps``, ``max_menu``, ``model`` (the name the
+    seats' decisions record), ``partners`` (seat → model spec: seats played by a model),
+    ``off_menu`` ("error", or "score": an id off the menu scored as a model's invalid id)."""
+    return CoCoBenchParallelEnv(source, condition=condition, task_id=task_id,
+                                prompt_suite=prompt_suite, reward=reward, seed=seed, **options)
+
+
+def env(source: str, *, condition: str, task_id: str | None = None,
+        prompt_suite: str = DEFAULT_SUITE, reward: Mapping[str, float] | None = None,
+        seed: int | None = None, **options: Any):
+    """The AEC form of `parallel_env` (PettingZoo's own conversion)."""
+    return parallel_to_aec(parallel_env(source, condition=condition, task_id=task_id,
+                                        prompt_suite=prompt_suite, reward=reward, seed=seed,
+                                        **options))
+
+
+__all__ = ["AGENT_SEAT", "CoCoBenchParallelEnv", "SeatAction", "env", "parallel_env"]

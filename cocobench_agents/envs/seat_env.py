@@ -1,0 +1,66 @@
+"""`SeatEnv`: one seat learns; the condition's other seats are played by a model the harness
+runs (a frozen partner)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import gymnasium
+
+from cocobench_agents.envs.parallel import CoCoBenchParallelEnv, _seats_of
+from cocobench_agents.envs.seated import EnvError
+from cocobench_agents.envs.source import instances, one_condition
+from cocobench_agents.prompts import DEFAULT_SUITE
+
+
+class SeatEnv(gymnasium.Env):
+    """CoCoBench as a Gymnasium environment for one `seat` of `condition` (``team`` for C0,
+    a robot such as ``agent_0``, or ``leader``); every other seat is played by `partner`, a
+    model spec (``greedy``, ``random``, ``scripted:FILE``, ``replay:RUN``, a LiteLLM model).
+    Spaces, rewards and options are `parallel_env`'s (docs/environments.md)."""
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
+
+    def __init__(self, source: str, *, condition: str, seat: str, partner: str,
+                 task_id: str | None = None, prompt_suite: str = DEFAULT_SUITE,
+                 reward: Mapping[str, float] | None = None, seed: int | None = None,
+                 **options: Any) -> None:
+        chosen = one_condition(condition)
+        for config in instances(source, task_id):
+            seats = _seats_of(config, chosen.planner)
+            if seat not in seats:
+                raise EnvError(f"no seat {seat!r} in {config.task_id} under {condition}: its "
+                               f"seats are {', '.join(seats)}")
+        self.seat = seat
+        partners = {s: partner for s in _all_seats_of(source, task_id, chosen.planner)
+                    if s != seat}
+        self.team = CoCoBenchParallelEnv(source, condition=condition, task_id=task_id,
+                                         prompt_suite=prompt_suite, reward=reward, seed=seed,
+                                         partners=partners, **options)
+        self.observation_space = self.team.observation_space(seat)
+        self.action_space = self.team.action_space(seat)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        observations, infos = self.team.reset(seed=seed, options=options)
+        return observations[self.seat], infos[self.seat]
+
+    def step(self, action: Any):
+        observations, rewards, terminations, truncations, infos = self.team.step(
+            {self.seat: action})
+        return (observations[self.seat], rewards[self.seat], terminations[self.seat],
+                truncations[self.seat], infos[self.seat])
+
+    def close(self) -> None:
+        self.team.close()
+
+    @property
+    def result(self):
+        """The ended episode's scored result (None before its end)."""
+        return self.team.state_result
+
+
+def _all_seats_of(source: str, task_id: str | None, planner: str) -> list[str]:
+    return list(dict.fromkeys(s for c in instances(source, task_id)
+                              for s in _seats_of(c, planner)))

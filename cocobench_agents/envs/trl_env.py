@@ -1,0 +1,108 @@
+"""TRL's environment contract (`GRPOTrainer(environment_factory=…)`): an LLM policy plays one
+seat of CoCoBench through tool calls, so it can be trained with GRPO.
+
+TRL constructs the class without arguments, calls `reset(**example)` before each rollout
+(its string is appended to the last user message), offers every public method but `reset`
+and `get_reward` to the model as a tool (its schema read from the type hints and the
+docstring's ``Args:``), turns an exception a tool raises into an ``{"error": …}`` reply the
+model reads, and scores the rollout with `get_reward()`. A configured class comes from
+`trl_environment(source, condition=…, seat=…, partner=…)`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+from benchmark_adapter.vocabulary import BLIND, DEMO_SUITE
+from cocobench_agents.conditions import condition_name
+from cocobench_agents.envs.seat_env import SeatEnv
+from cocobench_agents.envs.seated import DONE, EnvError
+from cocobench_agents.graphs import DEFAULT_PLANNER, planner_spec
+from cocobench_agents.graphs.registry import LEADER_SEAT
+from cocobench_agents.prompts import DEFAULT_SUITE
+
+
+class CoCoBenchTRLEnv:
+    """One seat of a CoCoBench episode, played through tools; the rest of the team is the
+    `partner` model. Configure it with `trl_environment` (the class attributes below are its
+    settings; the defaults play C0 on the built-in demo suite against `greedy`)."""
+
+    source: ClassVar[str] = DEMO_SUITE
+    condition: ClassVar[str] = condition_name(planner_spec(DEFAULT_PLANNER).code, BLIND)
+    seat: ClassVar[str] = "team"
+    partner: ClassVar[str] = "greedy"
+    task_id: ClassVar[str | None] = None
+    prompt_suite: ClassVar[str] = DEFAULT_SUITE
+    reward_weights: ClassVar[Mapping[str, float] | None] = None
+
+    def __init__(self) -> None:
+        if self.seat == LEADER_SEAT:
+            raise EnvError("the TRL environment plays the team's seat or a robot's, not the "
+                           "leader's (its move is a message, not a menu id)")
+        self._env = SeatEnv(self.source, condition=self.condition, seat=self.seat,
+                            partner=self.partner, task_id=self.task_id,
+                            prompt_suite=self.prompt_suite, reward=self.reward_weights)
+        self._return = 0.0
+        self._ended = True
+
+    def reset(self, **example: Any) -> str:
+        """Start an episode (on the instance an example's ``task_id`` names, else one drawn
+        with its ``seed``); the seat's first prompt, exactly as the harness renders it."""
+        options = {"task_id": example["task_id"]} if example.get("task_id") else None
+        observation, _ = self._env.reset(seed=example.get("seed"), options=options)
+        self._return, self._ended = 0.0, False
+        return observation["prompt"]
+
+    def act(self, action_id: int, message: str = "") -> str:
+        """Take one action: the id of an entry of the action list in the prompt.
+
+        Args:
+            action_id: The id of the chosen action, as the prompt's action list shows it.
+            message: A one-line message to the teammates (only where the prompt offers a
+                message board; leave empty otherwise).
+
+        Returns:
+            The next prompt, or how the episode ended.
+        """
+        return self._step(action_id, message)
+
+    def done(self) -> str:
+        """Declare that this robot (or the team) has nothing more to do.
+
+        Returns:
+            The next prompt, or how the episode ended.
+        """
+        return self._step(DONE, "")
+
+    def get_reward(self) -> float:
+        """The rollout's return: the sum of the benchmark's weighted rewards so far."""
+        return self._return
+
+    def _step(self, action_id: int, message: str) -> str:
+        if self._ended:
+            raise EnvError("the episode has ended: no more actions")
+        action: Any = int(action_id)
+        if isinstance(self._env.action_space, dict) or hasattr(self._env.action_space, "spaces"):
+            action = {"action": action, "message": message}
+        elif message:
+            raise EnvError(f"seat {self.seat!r} sends no messages under {self.condition}")
+        observation, reward, terminated, truncated, info = self._env.step(action)
+        self._return += float(reward)
+        if terminated or truncated:
+            self._ended = True
+            return (f"The episode has ended ({info['terminal_reason']}): task success "
+                    f"{info['task_success']}, goal progress {info['task_progress']}.")
+        return observation["prompt"]
+
+
+def trl_environment(source: str, *, condition: str, seat: str, partner: str = "greedy",
+                    task_id: str | None = None, prompt_suite: str = DEFAULT_SUITE,
+                    reward: Mapping[str, float] | None = None) -> type[CoCoBenchTRLEnv]:
+    """A `CoCoBenchTRLEnv` class with these settings, checked by building one instance: pass
+    it as ``GRPOTrainer(environment_factory=…)``."""
+    settings = {"source": source, "condition": condition, "seat": seat, "partner": partner,
+                "task_id": task_id, "prompt_suite": prompt_suite, "reward_weights": reward}
+    configured = type("CoCoBenchTRLEnv", (CoCoBenchTRLEnv,), settings)
+    configured()  # bad settings fail here, not in the trainer
+    return configured

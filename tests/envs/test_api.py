@@ -1,0 +1,297 @@
+"""The environments pass PettingZoo's and Gymnasium's own checks, for every condition, on
+real configs and on the built-in suites; they are deterministic; bad input is told clearly."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from tests.paths import SHARED_TASKS
+
+pytestmark = pytest.mark.needs_env
+
+TASKS = str(SHARED_TASKS)
+REAL = "A_D1__FloorPlan1__seed0"  # agents agent_1, agent_2
+CONDITIONS = ("C0_blind", "D0_blind", "D1_blind", "LW_blind")
+#: (source, task_id): one real config, and a built-in suite (the instance drawn per reset).
+SOURCES = ((TASKS, REAL), ("demo", None))
+
+
+@pytest.fixture(autouse=True)
+def _quiet():
+    # PettingZoo's checkers warn about dict spaces, which the prompt text needs.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
+
+
+@pytest.mark.parametrize("condition", CONDITIONS)
+@pytest.mark.parametrize(("source", "task_id"), SOURCES)
+def test_pettingzoo_parallel_and_aec_api_tests_pass(source, task_id, condition):
+    from pettingzoo.test import api_test, parallel_api_test
+
+    from cocobench_agents.envs import env, parallel_env
+
+    parallel_api_test(parallel_env(source, condition=condition, task_id=task_id, seed=0),
+                      num_cycles=200)
+    api_test(env(source, condition=condition, task_id=task_id, seed=1), num_cycles=200)
+
+
+@pytest.mark.parametrize("condition", ("C0_image", "D1_image"))
+def test_image_conditions_pass_the_api_test_and_carry_frames(condition):
+    from pettingzoo.test import parallel_api_test
+
+    from cocobench_agents.envs import parallel_env
+
+    environment = parallel_env(TASKS, condition=condition, task_id=REAL)
+    observations, _ = environment.reset(seed=0)
+    image = next(iter(observations.values()))["frame"]
+    assert image.dtype == np.uint8 and image.max() > 0
+    parallel_api_test(environment, num_cycles=20)
+
+
+SEATS = {"C0_blind": "team", "D0_blind": "agent_1", "D1_blind": "agent_2",
+         "LW_blind": "agent_1"}
+
+
+@pytest.mark.parametrize("condition", CONDITIONS)
+@pytest.mark.parametrize(("source", "task_id"), SOURCES)
+def test_gymnasium_check_env_passes_on_seat_env(source, task_id, condition):
+    from gymnasium.utils.env_checker import check_env
+
+    from cocobench_agents.envs import SeatEnv
+
+    check_env(SeatEnv(source, condition=condition, seat=SEATS[condition], partner="random",
+                      task_id=task_id, off_menu="score"), skip_render_check=True)
+
+
+def test_the_leader_seat_learns_with_robot_partners():
+    from gymnasium.utils.env_checker import check_env
+
+    from cocobench_agents.envs import SeatEnv
+
+    environment = SeatEnv(TASKS, condition="LW_blind", seat="leader", partner="greedy",
+                          task_id=REAL)
+    check_env(environment, skip_render_check=True)
+    observation, _ = environment.reset(seed=0)
+    assert "agent_1" in observation["prompt"]
+
+
+def rollout(environment, seed: int, steps: int = 40) -> list:
+    """Observations and rewards of `steps` steps of seeded random legal actions."""
+    observations, _ = environment.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    seen = [observations]
+    for _ in range(steps):
+        if not environment.agents:
+            break
+        actions = {}
+        for seat in environment.agents:
+            mask = observations[seat]["action_mask"]
+            ids = np.flatnonzero(mask if isinstance(mask, np.ndarray) else mask["action"]) - 1
+            choice = int(rng.choice(ids[ids >= 0])) if (ids >= 0).any() else -1
+            sends = not isinstance(mask, np.ndarray) and mask["message"][0] > 0
+            actions[seat] = choice if isinstance(mask, np.ndarray) else \
+                {"action": choice, "message": f"agent_1: m{choice}" if sends else ""}
+        observations, rewards, *_ = environment.step(actions)
+        seen.append((observations, rewards))
+    return seen
+
+
+@pytest.mark.parametrize("condition", CONDITIONS)
+def test_same_seed_same_actions_same_observations(condition):
+    from cocobench_agents.envs import parallel_env
+
+    def run(seed):
+        return rollout(parallel_env("demo", condition=condition), seed)
+
+    first, again, other = run(3), run(3), run(4)
+    assert _same(first, again)
+    assert not _same(first, other)
+
+
+def _same(a, b) -> bool:
+    import pickle
+
+    return pickle.dumps(a) == pickle.dumps(b)
+
+
+def test_the_observation_is_the_prompt_the_harness_sends():
+    from benchmark_adapter.tasks import load_tasks
+    from cocobench_agents.engine.first_prompts import first_round_requests
+    from cocobench_agents.envs import parallel_env
+    from cocobench_agents.episode_runner import EpisodeSpec
+
+    config = load_tasks("demo")[1]
+    for planner, condition in (("centralized", "C0_blind"), ("decentralized", "D0_blind"),
+                               ("decentralized-broadcast", "D1_blind"),
+                               ("leader-worker", "LW_blind")):
+        observations, _ = parallel_env("demo", condition=condition,
+                                       task_id=config.task_id).reset()
+        requests = first_round_requests(EpisodeSpec(config, planner=planner,
+                                                    obs_mode="blind"))
+        sent = {r.agent or r.role: r.messages[-1]["content"] for r in requests}
+        if planner == "leader-worker":  # the robots wait for the leader's word first
+            sent = {"leader": sent["leader"]}
+        prompts = {seat: obs["prompt"] for seat, obs in observations.items() if obs["prompt"]}
+        assert sent == prompts
+
+
+def test_rewards_are_the_benchmarks_own_and_the_last_info_is_the_result_line():
+    from benchmark_adapter.oracles import oracle_plan
+    from cocobench_agents.envs import parallel_env
+
+    environment = parallel_env(TASKS, condition="C0_blind", task_id=REAL,
+                               reward={"legality": 0.5, "construct": 1.0})
+    environment.reset()
+    plan, total = oracle_plan(environment.episode.spec.config), 0.0
+    failing = environment.episode.view("team").menu
+    for call in plan:
+        entry = next(o for o in environment.episode.view("team").menu if o.call == call)
+        rewards = environment.step({"team": entry.action_id})[1]
+        total += rewards["team"]
+    _, rewards, terminations, truncations, infos = environment.step({"team": -1})
+    total += rewards["team"]
+    result = environment.state_result
+    assert terminations == {"team": True} and truncations == {"team": False}
+    assert result.task_success == 1
+    # progress sums to the final progress; success and construct come at the end.
+    assert total == pytest.approx(result.task_progress + 1 + result.construct_score)
+    assert infos["team"] == result.model_dump(mode="json")
+    assert infos["team"]["condition"] == "C0_blind"
+    assert failing  # the menu was there to choose from
+
+
+def test_a_failed_call_costs_its_seat_the_legality_weight():
+    from cocobench_agents.envs import parallel_env
+
+    environment = parallel_env(TASKS, condition="D0_blind", task_id=REAL,
+                               reward={"legality": 2.0, "progress": 0.0})
+    environment.reset()
+    put = next(o for o in environment.episode.view("agent_1").menu if o.call.startswith("Put"))
+    _, rewards, *_ = environment.step({"agent_1": put.action_id, "agent_2": -1})
+    assert rewards == {"agent_1": -2.0, "agent_2": 0.0}
+
+
+def test_the_budget_truncates():
+    from cocobench_agents.envs import parallel_env
+
+    environment = parallel_env(TASKS, condition="C0_blind", task_id=REAL, max_steps=2)
+    environment.reset()
+    explore = [o for o in environment.episode.view("team").menu if "Explore" in o.call]
+    environment.step({"team": explore[0].action_id})
+    _, _, terminations, truncations, infos = environment.step({"team": explore[1].action_id})
+    assert truncations == {"team": True} and terminations == {"team": False}
+    assert infos["team"]["terminal_reason"] == "max_steps"
+
+
+@pytest.mark.parametrize("mode", ("sync", "async"))
+def test_seat_env_runs_under_gymnasium_vector(mode):
+    import gymnasium
+
+    from cocobench_agents.envs import SeatEnv
+
+    def make():
+        return SeatEnv("demo", condition="D0_blind", seat="agent_1", partner="greedy",
+                       off_menu="score")
+
+    kind = gymnasium.vector.SyncVectorEnv if mode == "sync" else gymnasium.vector.AsyncVectorEnv
+    options = {} if mode == "sync" else {"shared_memory": False}
+    vector = kind([make, make], **options)
+    try:
+        observations, _ = vector.reset(seed=[1, 2])
+        masks = observations["action_mask"]
+        actions = np.array([int(np.flatnonzero(m)[-1]) - 1 for m in masks])
+        observations, rewards, *_ = vector.step(actions)
+        assert rewards.shape == (2,) and len(observations["prompt"]) == 2
+        assert all("agent_1" in p for p in observations["prompt"])
+    finally:
+        vector.close()
+
+
+# -- bad input -------------------------------------------------------------------------------
+
+
+def test_an_action_off_the_mask_is_refused():
+    from cocobench_agents.envs import EnvError, parallel_env
+
+    environment = parallel_env(TASKS, condition="D0_blind", task_id=REAL)
+    environment.reset()
+    with pytest.raises(EnvError, match=r"action 999 of seat 'agent_1' is not on its menu"):
+        environment.step({"agent_1": 999, "agent_2": -1})
+    with pytest.raises(EnvError, match="must be a menu id"):
+        environment.step({"agent_1": "3", "agent_2": -1})
+
+
+def test_a_message_from_a_seat_that_sends_none_is_refused():
+    from cocobench_agents.envs import EnvError, parallel_env
+
+    environment = parallel_env(TASKS, condition="D0_blind", task_id=REAL)
+    environment.reset()
+    with pytest.raises(EnvError, match="seat 'agent_1' sends no messages"):
+        environment.step({"agent_1": {"action": 0, "message": "hi"}, "agent_2": -1})
+    led = parallel_env(TASKS, condition="LW_blind", task_id=REAL)
+    led.reset()
+    with pytest.raises(EnvError, match="seat 'agent_1' waits this phase"):
+        led.step({"leader": {"action": -1, "message": "agent_1: go"},
+                  "agent_1": {"action": -1, "message": "me too"},
+                  "agent_2": {"action": -1, "message": ""}})
+
+
+def test_stepping_a_finished_episode_is_refused():
+    from cocobench_agents.envs import EnvError, parallel_env
+
+    environment = parallel_env(TASKS, condition="C0_blind", task_id=REAL)
+    environment.reset()
+    environment.step({"team": -1})  # DONE ends a C0 episode
+    assert environment.agents == []
+    with pytest.raises(EnvError, match=r"the episode has ended: call reset\(\)"):
+        environment.step({})
+    with pytest.raises(EnvError, match="no live seat 'team'"):
+        environment.step({"team": 0})
+
+
+def test_unknown_names_are_told():
+    from cocobench_agents.envs import EnvError, SeatEnv, parallel_env
+    from cocobench_agents.harness import PlanError
+    from cocobench_agents.models import ModelConfigError
+
+    with pytest.raises(PlanError, match="unknown condition 'Z9_blind'"):
+        parallel_env(TASKS, condition="Z9_blind", task_id=REAL)
+    with pytest.raises(EnvError, match="one, such as D1_blind"):
+        parallel_env(TASKS, condition="blind", task_id=REAL)
+    with pytest.raises(EnvError, match="not 'oracle'"):
+        parallel_env(TASKS, condition="OR_blind", task_id=REAL)
+    with pytest.raises(EnvError, match="unknown reward 'speed': the rewards are progress"):
+        parallel_env(TASKS, condition="C0_blind", task_id=REAL, reward={"speed": 1})
+    with pytest.raises(EnvError, match="no seat 'agent_0' in A_D1__FloorPlan1__seed0"):
+        SeatEnv(TASKS, condition="D0_blind", seat="agent_0", partner="greedy", task_id=REAL)
+    with pytest.raises(ModelConfigError, match="cannot read the script"):
+        SeatEnv(TASKS, condition="D0_blind", seat="agent_1", partner="scripted:/no/such.json",
+                task_id=REAL)
+    with pytest.raises(Exception, match="unknown task 'nope'"):
+        parallel_env(TASKS, condition="C0_blind", task_id="nope")
+
+
+@pytest.mark.parametrize("condition", ("D0_blind", "D1_blind", "LW_blind"))
+def test_an_oracle_partner_plays_its_part_of_the_reference_plan(condition):
+    from cocobench_agents.envs import SeatEnv
+    from cocobench_agents.envs.oracle_partner import OraclePlan
+
+    seat_env = SeatEnv(TASKS, condition=condition, seat="agent_2", partner="oracle",
+                       task_id=REAL)
+    seat_env.reset(seed=0)
+    episode = seat_env.team.episode
+    plan = OraclePlan(episode.episode)  # the learner follows the same plan for its calls
+    terminated = truncated = False
+    while not (terminated or truncated):
+        call = plan.next_call()
+        entry = next((o for o in episode.view("agent_2").menu if o.call == call), None)
+        choice = entry.action_id if entry else -1
+        action = choice if condition == "D0_blind" else {"action": choice, "message": ""}
+        _, _, terminated, truncated, info = seat_env.step(action)
+    assert info["task_success"] == 1
+    decisions = episode.document["planner_decisions"]
+    assert {d["model"] for d in decisions if d["agent"] == "agent_1"} == {"oracle"}
