@@ -2,7 +2,7 @@
 (extra) each test needs.
 
 A test that needs an extra carries its marker (`needs_ray`, `needs_thor`, `needs_browser`,
-`needs_langgraph_cli`, `llm`); where that piece is missing, the test is skipped with the
+`needs_langgraph_cli`, `needs_inspect`, `llm`); where that piece is missing, the test is skipped with the
 reason and the command that installs it. Nothing else in the tests skips on a missing extra.
 `--fail-on-skip` turns any skip into a failed session (CI's run with every extra installed).
 """
@@ -69,6 +69,7 @@ EXTRAS = (
     Extra("needs_thor", module_missing("ai2thor", "pip install -e '.[thor]'")),
     Extra("needs_browser", browser_missing),
     Extra("needs_langgraph_cli", langgraph_cli_missing),
+    Extra("needs_inspect", module_missing("inspect_ai", "pip install -e '.[inspect]'")),
     Extra("llm", llm_missing),
 )
 
