@@ -7,6 +7,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from inspect_ai._util.error import PrerequisiteError
+
 from cocobench_agents.api import request_of
 from cocobench_agents.engine.errors import is_user_error
 from cocobench_agents.engine.request import RunRequest
@@ -35,8 +37,13 @@ INSPECT_OWNS = {
 #: How our messages name a setting: its option, then its field.
 _OPTION_NAMED = re.compile(r"--[\w-]+ \((?P<name>\w+)\)")
 
-class TaskParameterError(ValueError):
-    """A ``-T`` parameter the task cannot run with: the message names it."""
+class TaskParameterError(PrerequisiteError, ValueError):
+    """A ``-T`` parameter the task cannot run with: the message names it. (A
+    `PrerequisiteError`: Inspect's command prints its message alone, no traceback.)"""
+
+    def __init__(self, message: str) -> None:
+        ValueError.__init__(self, message)
+        self.message = message
 
 
 def task_request(params: dict[str, Any]) -> RunRequest:
