@@ -42,6 +42,7 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
     "cocobench_agents": (
         ("__init__", "cli"),  # the Python API's name list, the command: nothing imports them
         ("play",),  # the play page of human seats, served on the viewer's local server
+        ("inspect_eval",),  # the Inspect task: the Python API's request, run by Inspect
         ("api", "viewer", "episode_graph"),  # the other doors: none opens onto another
         ("reports",),  # reads run folders, and what their requests' settings are
         ("engine",),  # RunRequest → plan → run; imports no door

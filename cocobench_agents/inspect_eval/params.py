@@ -9,6 +9,7 @@ from typing import Any
 
 from inspect_ai._util.error import PrerequisiteError
 
+from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.api import request_of
 from cocobench_agents.engine.errors import is_user_error
 from cocobench_agents.engine.request import RunRequest
@@ -70,7 +71,7 @@ def task_request(params: dict[str, Any]) -> RunRequest:
                                  "give one")
     if planners is not None:  # each planner under each observation mode of -T obs
         given["planners"] = _listed(planners)
-        conditions = _listed(obs or "image")  # `request_of` reads the modes from them
+        conditions = _listed(obs or IMAGE)  # `request_of` reads the modes from them
     elif obs is not None:
         raise TaskParameterError("-T obs goes with -T planner (or name conditions such as "
                                  "-T conditions=C0_image,C0_blind)")

@@ -63,7 +63,7 @@ def scripted_mockllm(replies: list[str]):
 
     cursors: dict[tuple[object, int], int] = {}
 
-    def output(input, tools, tool_choice, config):  # noqa: A002 - mockllm's signature
+    def output(input, tools, tool_choice, config):  # mockllm's signature
         active = sample_active()
         key = (active.sample.id, active.epoch)
         index = cursors.get(key, 0)
