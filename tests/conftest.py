@@ -4,7 +4,8 @@
 A test that needs an extra carries its marker (`needs_ray`, `needs_thor`, `needs_browser`,
 `needs_langgraph_cli`, `needs_inspect`, `llm`); where that piece is missing, the test is
 skipped with the reason and the command that installs it. Nothing else in the tests skips on a
-missing extra. `--fail-on-skip` turns any skip into a failed session (CI's run with every extra installed).
+missing extra. `--fail-on-skip` turns any skip into a failed session (CI's run with every
+extra installed).
 """
 
 from __future__ import annotations
