@@ -26,6 +26,7 @@ COMMANDS = {
     "prompts": "prompts_cmd:prompts_command",
     "planners": "planners_cmd:planners_command",
     "view": "view_cmd:view_command",
+    "import-inspect": "import_inspect_cmd:import_inspect_command",
 }
 
 # What `cocobench --help` lists, so that it imports no subcommand (a command missing here is
@@ -41,11 +42,13 @@ SUMMARIES = {
     "prompts": "List, export and preview prompt suites (the prompt a model gets).",
     "planners": "List every planner: built in, installed by packages, or your own file.",
     "view": "Browse run folders in a browser (live), or export them as static pages.",
+    "import-inspect": "Write an Inspect log of the cocobench task as a run folder.",
 }
 
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback (the
 # engine's, and the viewer's).
-USER_ERRORS = {**ENGINE_USER_ERRORS, "cocobench_agents.viewer.errors": "ViewerError"}
+USER_ERRORS = {**ENGINE_USER_ERRORS, "cocobench_agents.viewer.errors": "ViewerError",
+               "cocobench_agents.inspect_eval.convert": "InspectLogError"}
 
 
 class LazyGroup(click.Group):

@@ -16,6 +16,8 @@ from .params import TaskParameterError, task_request
 from .scorer import cocobench_scorer
 from .solver import cocobench_solver
 
+REQUEST = "cocobench_request"  # the task metadata's key of the request
+
 
 @task
 def cocobench(task: str | list[str] | None = None, suite: str | list[str] | None = None,
@@ -41,9 +43,9 @@ def cocobench(task: str | list[str] | None = None, suite: str | list[str] | None
     params = {"task": task, "suite": suite, "conditions": conditions, "planner": planner,
               "obs": obs, "prompt_suite": prompt_suite, "max_steps": max_steps,
               "backend": backend, **options}
-    request = task_request(params)
     try:
-        run = resolve(canonical(request), notify=lambda _: None)
+        request = canonical(task_request(params))
+        run = resolve(request, notify=lambda _: None)
     except Exception as exc:
         if not is_user_error(exc):
             raise
@@ -56,7 +58,8 @@ def cocobench(task: str | list[str] | None = None, suite: str | list[str] | None
                               name="cocobench"),
         solver=cocobench_solver(planned, request.model_settings),
         scorer=cocobench_scorer(),
-        metadata={"cocobench_request": request.model_dump(mode="json", exclude={"out"})},
+        # what `cocobench import-inspect` makes the log's run folder from
+        metadata={REQUEST: request.model_dump(mode="json", exclude={"out", "models"})},
     )
 
 

@@ -219,3 +219,48 @@ def test_a_bad_parameter_on_the_command_line_names_it(tmp_path: Path):
     assert "Traceback" not in done.stderr
     assert not list(tmp_path.glob("*.eval"))
 
+
+
+def test_an_inspect_log_becomes_a_run_folder_the_viewer_reads(tmp_path: Path):
+    from cocobench_agents.runfolder.folder import RunFolder
+
+    log = _inspect_eval(tmp_path, REPLIES, task=config_paths(), conditions="D1_image,C0_blind",
+                        max_steps=3)
+    out = tmp_path / "imported"
+    done = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "import-inspect", log.location,
+         "--out", str(out)], capture_output=True, text=True, env=subprocess_env(), check=False)
+    assert done.returncode == 0, done.stderr
+    assert f"cocobench view {out}" in done.stdout
+    lines = list(RunFolder(out).results())
+    assert len(lines) == 4 and all(line["model"] == "mockllm/model" for line in lines)
+    for line in lines:  # `cocobench score` rescoring the written trajectory gives the line
+        scored = subprocess.run(
+            [sys.executable, "-m", "cocobench_agents.cli", "score", "--json",
+             str(out / line["trajectory"])], capture_output=True, text=True,
+            env=subprocess_env(), check=True)
+        [rescored] = json.loads(scored.stdout)
+        assert rescored["construct_score"] == line["construct_score"]
+        assert rescored["num_steps"] == line["num_steps"]
+    # the viewer shows each episode with its construct signal and timeline
+    site = tmp_path / "site"
+    viewed = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "view", str(out), "--export", str(site)],
+        capture_output=True, text=True, env=subprocess_env(), check=False)
+    assert viewed.returncode == 0, viewed.stderr
+    pages = [p.read_text() for p in site.rglob("*.html") if "D1_image" in str(p)
+             or "C0_blind" in str(p)]
+    episodes = [html for html in pages if "landed steps" in html]
+    assert len(episodes) == 4
+    assert all("<svg" in html and "construct" in html.lower() for html in episodes)
+    # a second import into the same folder, or a file that is not a log: one line, exit 2
+    again = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "import-inspect", log.location,
+         "--out", str(out)], capture_output=True, text=True, env=subprocess_env(), check=False)
+    assert again.returncode == 2 and "already holds a run" in again.stderr
+    bad = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "import-inspect",
+         str(out / "run.json"), "--out", str(tmp_path / "other")],
+        capture_output=True, text=True, env=subprocess_env(), check=False)
+    assert bad.returncode == 2 and "not an Inspect log" in bad.stderr, bad.stderr
+    assert "Traceback" not in bad.stderr
