@@ -5,3 +5,7 @@ by Inspect's model, and scores them as our result lines (docs/inspect.md).
 Needs ``pip install 'cocobench-agents[inspect]'``; the package's modules import `inspect_ai`,
 nothing outside them imports the package (``import cocobench_agents`` never loads Inspect).
 """
+
+from .task import cocobench
+
+__all__ = ["cocobench"]

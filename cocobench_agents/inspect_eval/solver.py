@@ -16,13 +16,13 @@ from typing import Any
 from inspect_ai.model import ModelOutput, get_model
 from inspect_ai.model._model import model_roles
 from inspect_ai.solver import Generate, Solver, TaskState, solver
-from inspect_ai.util import LimitExceededError
 
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, run_episode
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.graphs.node_errors import PlannerNodeError
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.models import ModelPool
+from cocobench_agents.models.inspect_client import InspectLimitReached
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.runfolder.episode_key import EpisodeKey
 from cocobench_agents.runfolder.infra import is_infra_failure
@@ -51,9 +51,9 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
             document, result = await run_episode(spec, ModelPool(settings),
                                                  controller=spec.controller())
         except PlannerNodeError as exc:
-            state.store.set(TRAJECTORY, exc.document)
-            if isinstance(exc.__cause__, LimitExceededError):
-                raise exc.__cause__ from None  # Inspect ends the sample at its limit
+            state.store.set(TRAJECTORY, exc.document)  # scored as it stands at a limit
+            if isinstance(exc.__cause__, InspectLimitReached):
+                raise exc.__cause__.limit from None  # Inspect ends the sample at its limit
             raise EpisodeInfraError(str(exc)) from None
         line = {**result.model_copy(update={"condition": key.condition, "epoch": key.epoch})
                 .model_dump(mode="json"), **key.as_dict()}

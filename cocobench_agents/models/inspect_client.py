@@ -14,11 +14,12 @@ the decision becomes a ``backend_error`` and the episode an infrastructure failu
 from __future__ import annotations
 
 import contextvars
+import sys
 from typing import Any
 
 from .errors import ModelConfigError
 from .failures import is_context_window_message, status_code, status_kind
-from .protocol import ModelReply, ModelRequest
+from .protocol import EpisodeHalt, ModelReply, ModelRequest
 from .remote import Completion, RemoteClient
 
 #: The deciding agent of the call in flight (a contextvar: `send` does not get the request).
@@ -26,6 +27,14 @@ _AGENT: contextvars.ContextVar[str | None] = contextvars.ContextVar("cocobench_a
                                                                    default=None)
 _OUTSIDE = ("the inspect transport decides with the model of a running Inspect eval: run "
             "`inspect eval cocobench_agents/cocobench --model PROVIDER/MODEL` (docs/inspect.md)")
+
+
+def check_inspect_eval(spec: str) -> None:
+    """Raise `ModelConfigError` unless an Inspect eval is running here (`cocobench run
+    --transport inspect` has no Inspect model to ask)."""
+    running = sys.modules.get("inspect_ai.model._model")  # never imported here for the check
+    if running is None or running.active_model() is None:
+        raise ModelConfigError(spec, _OUTSIDE)
 
 
 def inspect_model(agent: str | None) -> Any:
@@ -89,9 +98,18 @@ class InspectClient(RemoteClient):
         return "other", False
 
     def _error(self, exc: BaseException, latency_s: float, spent: dict[str, Any]) -> Any:
-        if _is_limit(exc):
-            raise exc  # not a model failure: Inspect stops the sample at its limit
+        if _is_limit(exc):  # not a model failure: Inspect ends the sample at its limit
+            raise InspectLimitReached(exc) from exc
         return super()._error(exc, latency_s, spent)
+
+
+class InspectLimitReached(EpisodeHalt):
+    """An Inspect usage limit (tokens, cost, time, …) stopped the episode; `limit` is
+    Inspect's `LimitExceededError`, which the solver hands back to Inspect."""
+
+    def __init__(self, limit: BaseException) -> None:
+        super().__init__(str(limit))
+        self.limit = limit
 
 
 class InspectOutputError(Exception):

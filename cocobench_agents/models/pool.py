@@ -19,7 +19,7 @@ from .builtin import (
 from .cache import ResponseCache
 from .errors import ModelConfigError
 from .human import HUMAN, HumanClient, SeatDesk
-from .inspect_client import InspectClient
+from .inspect_client import InspectClient, check_inspect_eval
 from .litellm_client import LiteLLMClient, import_litellm
 from .openai_http import OPENAI_KEY_ENV, OPENAI_PREFIX, OpenAIHTTPClient, preload
 from .protocol import ModelClient
@@ -147,7 +147,8 @@ class ModelPool:
     def _validate_remote(self, spec: str) -> None:
         s = self.settings
         if s.transport == "inspect":
-            return  # Inspect resolved the model and its key before any sample started
+            check_inspect_eval(spec)  # Inspect resolved the model and its key already
+            return
         if s.transport == "http":
             self._validate_http_model(spec)
         elif known_provider(spec) is None:  # told from LiteLLM's cost map, without LiteLLM

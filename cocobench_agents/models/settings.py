@@ -29,6 +29,9 @@ LOCAL_PLACEHOLDER_KEY = "no-key-required"
 #: lean OpenAI-compatible client for high-concurrency runs (see `openai_http`), or ``inspect``,
 #: the model of a running Inspect eval (see `inspect_client`).
 TRANSPORTS = ("litellm", "http", "inspect")
+#: The transports that call a model's endpoint themselves (``inspect`` asks Inspect's model,
+#: which calls it): what the endpoint tests run against a local server.
+ENDPOINT_TRANSPORTS = ("litellm", "http")
 
 
 def is_local_url(url: str | None) -> bool:

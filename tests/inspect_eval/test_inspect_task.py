@@ -264,3 +264,21 @@ def test_an_inspect_log_becomes_a_run_folder_the_viewer_reads(tmp_path: Path):
         capture_output=True, text=True, env=subprocess_env(), check=False)
     assert bad.returncode == 2 and "not an Inspect log" in bad.stderr, bad.stderr
     assert "Traceback" not in bad.stderr
+
+
+def test_an_inspect_usage_limit_ends_the_sample_scored_as_it_stands(tmp_path: Path):
+    from inspect_ai import eval as inspect_eval
+    from inspect_ai.log import read_eval_log
+
+    from cocobench_agents.inspect_eval.task import cocobench
+
+    [log] = inspect_eval(cocobench(task=config_paths()[0], conditions="C0_blind,D1_blind"),
+                         model=scripted_mockllm(REPLIES), log_dir=str(tmp_path),
+                         display="none", token_limit=5000)
+    log = read_eval_log(log.location)
+    assert log.status == "success"
+    for sample in log.samples:
+        assert sample.error is None and sample.limit is not None
+        assert sample.limit.type == "token"
+        steps = sample.scores["cocobench_scorer"].value["steps"]
+        assert 0 < steps < 12  # the budget is 22: the limit stopped it
