@@ -2,8 +2,9 @@
 `cocobench run` runs (the same runner, planners, prompts and parsing) with the decisions made
 by Inspect's model, and scores them as our result lines (docs/inspect.md).
 
-Needs ``pip install 'cocobench-agents[inspect]'``; the package's modules import `inspect_ai`,
-nothing outside them imports the package (``import cocobench_agents`` never loads Inspect).
+Needs ``pip install 'cocobench-agents[inspect]'``; the package's modules import `inspect_ai`.
+Only Inspect (through the ``inspect_ai`` entry point) and ``cocobench import-inspect`` import
+the package: ``import cocobench_agents`` never loads Inspect.
 """
 
 from .task import cocobench

@@ -18,7 +18,7 @@ from inspect_ai.model._model import model_roles
 from inspect_ai.solver import Generate, Solver, TaskState, solver
 
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, run_episode
-from cocobench_agents.graphs import planner_spec
+from cocobench_agents.graphs import NO_MODEL, planner_spec
 from cocobench_agents.graphs.node_errors import PlannerNodeError
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.models import ModelPool
@@ -84,7 +84,10 @@ def seat_models(episode: PlannedEpisode) -> dict[str, str]:
 
 
 def _key(episode: PlannedEpisode, epoch: int) -> EpisodeKey:
-    return dataclasses.replace(episode.key, model=_name(get_model()), epoch=epoch)
+    """The episode's key as `cocobench run` keys it: Inspect's model (the label of a planner
+    that calls none, the oracle's, stays), Inspect's epoch counted from 0."""
+    model = episode.key.model if episode.key.model == NO_MODEL else _name(get_model())
+    return dataclasses.replace(episode.key, model=model, epoch=epoch)
 
 
 def _name(model: Any) -> str:
