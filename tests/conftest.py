@@ -2,10 +2,10 @@
 (extra) each test needs.
 
 A test that needs an extra carries its marker (`needs_ray`, `needs_thor`, `needs_browser`,
-`needs_langgraph_cli`, `needs_export`, `llm`); where that piece is missing, the test is
-skipped with the reason and the command that installs it. Nothing else in the tests skips
-on a missing extra. `--fail-on-skip` turns any skip into a failed session (CI's run with
-every extra installed).
+`needs_langgraph_cli`, `needs_export`, `needs_env`, `needs_trl`, `needs_inspect`, `llm`);
+where that piece is missing, the test is skipped with the reason and the command that
+installs it. Nothing else in the tests skips on a missing extra. `--fail-on-skip` turns any
+skip into a failed session (CI's run with every extra installed).
 """
 
 from __future__ import annotations
@@ -75,6 +75,7 @@ EXTRAS = (
     Extra("needs_trl", module_missing("trl", "pip install -e '.[env,trl]'")),
     Extra("needs_browser", browser_missing),
     Extra("needs_langgraph_cli", langgraph_cli_missing),
+    Extra("needs_inspect", module_missing("inspect_ai", "pip install -e '.[inspect]'")),
     Extra("llm", llm_missing),
     Extra("needs_export", lambda: module_missing("pyarrow", EXPORT_INSTALL)()
           or module_missing("datasets", EXPORT_INSTALL)()),

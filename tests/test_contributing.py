@@ -34,6 +34,7 @@ DEFINITIONS = [
     ("cocobench_agents.harness.execution_settings", "ExecutionSettings"),
     ("cocobench_agents.models.remote", "RemoteClient"),
     ("cocobench_agents.models.settings", "TRANSPORTS"),
+    ("cocobench_agents.models.settings", "ENDPOINT_TRANSPORTS"),
     ("cocobench_agents.models.settings", "ModelSettings"),
     ("cocobench_agents.models.pool", "_REMOTE_CLIENTS"),
     ("cocobench_agents.setting_kinds", "shaping"),

@@ -11,6 +11,9 @@ What a fenced block is, by its language (the word after the opening fence):
   reader's edit is left out.
 * any other (none, ``json``, ``toml``, ``yaml``, ``text``): output or data, never run.
 
+``<!-- extra: needs_X -->`` in a document about an optional extra gives its test that
+extra's marker (tests/conftest.py skips it, naming the install, where the extra is missing).
+
 ``<!-- not-run: REASON -->`` on the line before a fence skips a block that cannot run here
 (an API key, a GPU, a cluster, a person at the keyboard, a server that runs until Ctrl-C);
 the reason is required, and a marker before a block that is never run is refused.
@@ -42,6 +45,7 @@ FENCE = re.compile(r"^(?P<indent>[ \t]*)```(?P<lang>[\w+-]*)[^\n]*\n(?P<body>.*?
 MARKER = r"<!--\s*not-run:(?P<reason>(?:(?!-->).)*)-->"
 #: A marker on the line right before a fence: the text before the fence ends with it.
 MARKER_BEFORE = re.compile(MARKER + r"[ \t]*\n[ \t]*\Z", re.S)
+EXTRA_NOTE = re.compile(r"<!--\s*extra:\s*(needs_\w+)\s*-->")
 FILE_HEADER = re.compile(r"#\s*(?P<name>[\w.-]+\.py)\s*$")
 # Install commands are the test environment's own; bash runs everything else.
 SHELL_PRELUDE = """set -euo pipefail
@@ -225,20 +229,14 @@ def _to_run(document: Path) -> bool:
         return True
 
 
-#: Documents whose blocks use an optional extra: they carry its marker (tests/conftest.py
-#: skips them, naming the install, where it is missing).
-DOCUMENT_EXTRAS = {"environments.md": ("needs_export",)}
-
-
 def _needs_shared(document: Path) -> list:
     text = document.read_text(encoding="utf-8")
     uses = "../shared" in text
-    marks = [pytest.mark.skipif(uses and not SHARED_DATA.is_dir(),
-                                reason=f"no shared data at {SHARED_DATA}")]
-    marks += [getattr(pytest.mark, marker) for marker in DOCUMENT_EXTRAS.get(document.name, ())]
-    if "from cocobench_agents.envs import" in text:  # the env extra (tests/conftest.py)
-        marks.append(pytest.mark.needs_env)
-    return marks
+    # A document about an extra says so (``<!-- extra: needs_inspect -->``): its test
+    # carries that extra's marker, and skips with the install command where it is missing.
+    extras = [getattr(pytest.mark, m) for m in EXTRA_NOTE.findall(text)]
+    return [pytest.mark.skipif(uses and not SHARED_DATA.is_dir(),
+                               reason=f"no shared data at {SHARED_DATA}"), *extras]
 
 
 @pytest.mark.slow

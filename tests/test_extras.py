@@ -42,6 +42,8 @@ HIDE = {
     "needs_langgraph_cli": (
         lambda monkeypatch: monkeypatch.setattr(extras, "LANGGRAPH_CLI", Path("/nonexistent")),
         "langgraph-cli is not installed (pip install 'langgraph-cli[inmem]"),
+    "needs_inspect": (hide_module("inspect_ai"),
+                      "inspect_ai is not installed (pip install -e '.[inspect]')"),
     "llm": (hide_module("xllamacpp"), "xllamacpp is not installed (pip install xllamacpp)"),
     "needs_export": (hide_module("pyarrow"),
                      "pyarrow is not installed (pip install -e '.[export]' 'datasets>=4')"),

@@ -42,8 +42,9 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
     "cocobench_agents": (
         ("__init__", "cli"),  # the Python API's name list, the command: nothing imports them
         ("play",),  # the play page of human seats, served on the viewer's local server
-        ("api", "viewer", "episode_graph", "export", "envs"),  # the other doors: none opens onto
-        # another
+        ("inspect_eval",),  # the Inspect task: the Python API's request, run by Inspect
+        ("api", "viewer", "episode_graph", "export", "envs"),  # the other doors: none opens
+        # onto another
         ("reports",),  # reads run folders, and what their requests' settings are
         ("engine",),  # RunRequest → plan → run; imports no door
         ("harness",),

@@ -2,7 +2,8 @@
 
 Never raises: a failing model becomes a `backend_error` decision, so one agent's trouble
 cannot fail a decentralized round (LangGraph fails a whole step when one branch raises). The
-one exception that passes is `HumanTurn`: a human seat's desk pausing the episode.
+exceptions that pass are `EpisodeHalt`s: a human seat's desk pausing the episode
+(`HumanTurn`), a usage limit of the harness the model runs in.
 """
 
 from __future__ import annotations
@@ -13,8 +14,7 @@ from typing import Any
 
 from benchmark_adapter.menu import MenuEntry
 from cocobench_agents.graphs.context import PlannerContext
-from cocobench_agents.models.human import HumanTurn
-from cocobench_agents.models.protocol import ModelError, ModelReply, ModelRequest
+from cocobench_agents.models.protocol import EpisodeHalt, ModelError, ModelReply, ModelRequest
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import parse_message, parse_reply
 from cocobench_agents.tools import EpisodeTools, model_decision, stop_decision
@@ -43,7 +43,7 @@ async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
     started = time.perf_counter()
     try:
         reply = await (retry or ctx.retry_policy).complete(client, request)
-    except HumanTurn:  # not a failure: the episode stops here until a person answers
+    except EpisodeHalt:  # not a failure: a person's turn, a harness's usage limit
         raise
     except Exception as exc:  # noqa: BLE001 - any client failure idles this agent only
         error = exc if isinstance(exc, ModelError) else ModelError(

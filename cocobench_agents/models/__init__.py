@@ -51,6 +51,7 @@ _EXPORTS = {
     "ModelSettings": ".settings",
     "TEMPERATURE_AUTO": ".settings",
     "TRANSPORTS": ".settings",
+    "ENDPOINT_TRANSPORTS": ".settings",
     "is_local_url": ".settings",
 }
 __all__ = sorted(_EXPORTS)

@@ -16,7 +16,7 @@ from typing import Any, Protocol
 
 from .grammar import wants_message
 from .messages import image_data_url
-from .protocol import ModelError, ModelReply, ModelRequest
+from .protocol import EpisodeHalt, ModelError, ModelReply, ModelRequest
 
 HUMAN = "human"
 
@@ -85,7 +85,7 @@ class SeatDesk(Protocol):
         ...
 
 
-class HumanTurn(Exception):
+class HumanTurn(EpisodeHalt):
     """Raised by a desk that cannot wait here for the person: it ends the episode at
     `decision`, to be asked elsewhere (the `episode` graph asks through a LangGraph
     interrupt, then plays the episode again with the answer). No planner records it as a

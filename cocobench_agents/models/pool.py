@@ -19,6 +19,7 @@ from .builtin import (
 from .cache import ResponseCache
 from .errors import ModelConfigError
 from .human import HUMAN, HumanClient, SeatDesk
+from .inspect_client import InspectClient, check_inspect_eval
 from .litellm_client import LiteLLMClient, import_litellm
 from .openai_http import OPENAI_KEY_ENV, OPENAI_PREFIX, OpenAIHTTPClient, preload
 from .protocol import ModelClient
@@ -33,7 +34,7 @@ _UNKNOWN_MODEL = (
     f"OpenAI-compatible server), or one of the {_BUILTIN_USAGE}"
 )
 _REMOTE_CLIENTS: dict[str, type[RemoteClient]] = {
-    kind.transport: kind for kind in (LiteLLMClient, OpenAIHTTPClient)}
+    kind.transport: kind for kind in (LiteLLMClient, OpenAIHTTPClient, InspectClient)}
 
 
 class ModelPool:
@@ -145,6 +146,9 @@ class ModelPool:
 
     def _validate_remote(self, spec: str) -> None:
         s = self.settings
+        if s.transport == "inspect":
+            check_inspect_eval(spec)  # Inspect resolved the model and its key already
+            return
         if s.transport == "http":
             self._validate_http_model(spec)
         elif known_provider(spec) is None:  # told from LiteLLM's cost map, without LiteLLM
@@ -200,7 +204,8 @@ def needed_key_variables(settings: ModelSettings, model: str) -> tuple[str, ...]
     """The environment variables `model`'s key is read from under `settings`, any one of
     which will do (names only): none for a built-in or for a local `api_base` without
     `api_key_env` (local servers rarely check keys); None when only LiteLLM can tell."""
-    if is_builtin(model) or (is_local_url(settings.api_base) and not settings.api_key_env):
+    if (is_builtin(model) or settings.transport == "inspect"  # Inspect reads its keys
+            or (is_local_url(settings.api_base) and not settings.api_key_env)):
         return ()
     if settings.api_key_env:
         return (settings.api_key_env,)

@@ -73,6 +73,12 @@ class ModelError(Exception):
         return f"{self.kind}: {self.message}"
 
 
+class EpisodeHalt(Exception):
+    """Raised by a client to end the episode where it stands without a model failure: a
+    human seat's turn (`HumanTurn`), a usage limit of the harness the model runs in. A
+    planner's decision lets it pass; the runner stops the episode with it."""
+
+
 @runtime_checkable
 class ModelClient(Protocol):
     """Anything that can answer a `ModelRequest`."""

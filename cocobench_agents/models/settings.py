@@ -26,8 +26,12 @@ _REFERENCE_T0_PREFIXES = ("gpt", "o1", "o3", "o4")
 #: refuse to send a request without one; local servers rarely check it).
 LOCAL_PLACEHOLDER_KEY = "no-key-required"
 #: How remote models are called: through LiteLLM (the default, any provider), or ``http``, a
-#: lean OpenAI-compatible client for high-concurrency runs (see `openai_http`).
-TRANSPORTS = ("litellm", "http")
+#: lean OpenAI-compatible client for high-concurrency runs (see `openai_http`), or ``inspect``,
+#: the model of a running Inspect eval (see `inspect_client`).
+TRANSPORTS = ("litellm", "http", "inspect")
+#: The transports that call a model's endpoint themselves (``inspect`` asks Inspect's model,
+#: which calls it): what the endpoint tests run against a local server.
+ENDPOINT_TRANSPORTS = ("litellm", "http")
 
 
 def is_local_url(url: str | None) -> bool:
@@ -100,11 +104,12 @@ class ModelSettings(BaseModel):
     max_reply_chars: int = shaping(
         16_384, ge=1, description="Longer replies are cut to this length (the characters "
                                   "dropped are counted, never noted in the text).")
-    transport: Literal["litellm", "http"] = shaping(
+    transport: Literal["litellm", "http", "inspect"] = shaping(
         "litellm", flag="--transport",
         description="How remote models are called: LiteLLM (any provider), or http, a lean "
                     "OpenAI-compatible client for openai/NAME models (for high --jobs "
-                    "against a local server; see docs/models.md).")
+                    "against a local server; see docs/models.md), or inspect, the model "
+                    "of a running Inspect eval (docs/inspect.md).")
 
     @field_validator("extra_params", mode="before")
     @classmethod

@@ -22,7 +22,7 @@ from typing import Any
 import pytest
 
 from cocobench_agents.cli import main
-from cocobench_agents.models import TRANSPORTS, ModelRequest, ModelSettings, ResponseCache
+from cocobench_agents.models import ENDPOINT_TRANSPORTS, ModelRequest, ModelSettings, ResponseCache
 from cocobench_agents.models.pool import ModelPool
 from tests.models.fake_openai import SERVER_ERROR, Behaviour, FakeOpenAI, error, ok
 
@@ -75,7 +75,7 @@ def server(provider: Provider, monkeypatch, tmp_path):
     return provider.program(default=ok(DONE))
 
 
-@pytest.fixture(params=TRANSPORTS)
+@pytest.fixture(params=ENDPOINT_TRANSPORTS)
 def transport(request) -> str:
     return request.param
 

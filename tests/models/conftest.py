@@ -8,7 +8,7 @@ from collections.abc import Iterator
 import pytest
 
 from cocobench_agents.models import (
-    TRANSPORTS,
+    ENDPOINT_TRANSPORTS,
     LiteLLMClient,
     ModelSettings,
     OpenAIHTTPClient,
@@ -59,7 +59,7 @@ def fast_settings(fake: FakeOpenAI, **overrides: object) -> ModelSettings:
 CLIENTS: dict[str, type[RemoteClient]] = {"litellm": LiteLLMClient, "http": OpenAIHTTPClient}
 
 
-@pytest.fixture(params=TRANSPORTS)
+@pytest.fixture(params=ENDPOINT_TRANSPORTS)
 def transport(request: pytest.FixtureRequest) -> str:
     """Each transport in turn: the remote-client tests hold for both."""
     return request.param

@@ -18,7 +18,7 @@ from cocobench_agents.harness import (
     InProcess,
     plan_episodes,
 )
-from cocobench_agents.models import TRANSPORTS, ModelPool, ModelSettings
+from cocobench_agents.models import ENDPOINT_TRANSPORTS, ModelPool, ModelSettings
 from cocobench_agents.runfolder import RunFolder
 from tests.models.fake_openai import (
     RATE_LIMITED,
@@ -73,7 +73,7 @@ EXPECTED = {
 }
 
 
-@pytest.fixture(params=TRANSPORTS)
+@pytest.fixture(params=ENDPOINT_TRANSPORTS)
 def batch(request, tmp_path: Path, monkeypatch) -> tuple[RunFolder, ByModel]:
     monkeypatch.setenv("FAKE_PROVIDER_API_KEY", FAKE_KEY)
     config = next(c for c in load_tasks("demo") if c.cell == "G_D1")

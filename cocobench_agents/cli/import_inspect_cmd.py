@@ -1,0 +1,23 @@
+"""`cocobench import-inspect`: an Inspect log of the `cocobench` task as a run folder."""
+
+from __future__ import annotations
+
+import click
+
+
+@click.command("import-inspect")
+@click.argument("log", type=click.Path(dir_okay=False))
+@click.option("--out", required=True, type=click.Path(file_okay=False),
+              help="The run folder to write (new).")
+def import_inspect_command(log: str, out: str) -> None:
+    """Write the run folder of LOG, an Inspect log of `inspect eval cocobench_agents/cocobench`
+    (needs the inspect extra): `cocobench view OUT` then shows its episodes."""
+    try:
+        from cocobench_agents.inspect_eval.convert import import_log
+    except ImportError:
+        raise click.UsageError("reading Inspect logs needs inspect_ai: pip install "
+                               "'cocobench-agents[inspect]'") from None
+    imported = import_log(log, out)
+    errors = f", {imported.errors} infrastructure errors" if imported.errors else ""
+    click.echo(f"{imported.folder}: {imported.episodes} episodes{errors}; "
+               f"view them with: cocobench view {imported.folder}")

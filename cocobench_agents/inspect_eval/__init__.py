@@ -1,0 +1,12 @@
+"""CoCoBench as an Inspect task: ``inspect eval cocobench_agents/cocobench`` runs the episodes
+`cocobench run` runs (the same runner, planners, prompts and parsing) with the decisions made
+by Inspect's model, and scores them as our result lines (docs/inspect.md).
+
+Needs ``pip install 'cocobench-agents[inspect]'``; the package's modules import `inspect_ai`.
+Only Inspect (through the ``inspect_ai`` entry point) and ``cocobench import-inspect`` import
+the package: ``import cocobench_agents`` never loads Inspect.
+"""
+
+from .task import cocobench
+
+__all__ = ["cocobench"]

@@ -1,0 +1,69 @@
+"""The scorer: the episode's trajectory scored by the benchmark (`score_trajectory`, as
+`cocobench score` does), reported as named scores with Inspect's mean and bootstrap standard
+error. A value the episode has none of (the construct score of an unscored episode, legality
+outside D2, progress of a task without one) is NaN, which Inspect leaves out of that score's
+metrics: an unscored episode is not a zero, as in our reports."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from inspect_ai.scorer import Score, Target, bootstrap_stderr, mean, scorer
+from inspect_ai.solver import TaskState
+
+from benchmark_adapter.metrics import score_trajectory
+from benchmark_adapter.vocabulary import DIMENSIONS
+
+from .solver import RESULT, TRAJECTORY
+
+#: The named scores: ours → the result line's field.
+SCORES = {"success": "task_success", "construct_score": "construct_score",
+          "legal_plan": "legal_plan", "progress": "task_progress", "steps": "num_steps"}
+#: Each dimension's construct score, ``cs_D1`` … (NaN where the episode has none).
+DIMENSION_SCORES = tuple(f"cs_{dim}" for dim in DIMENSIONS)
+_METRICS = [mean(), bootstrap_stderr()]
+
+
+@scorer(metrics={name: _METRICS for name in (*SCORES, *DIMENSION_SCORES)})
+def cocobench_scorer() -> Any:
+    """Score the sample's trajectory."""
+
+    async def score(state: TaskState, target: Target) -> Score:
+        document = state.store.get(TRAJECTORY)
+        if document is None:
+            return Score.unscored(reason="no trajectory",
+                                  explanation="the episode left no trajectory")
+        line = {**(state.store.get(RESULT) or {})}
+        result = score_trajectory(document, **_identifiers(line))
+        values = score_values(result.model_dump(mode="json"))
+        return Score(value=values, answer=state.output.completion,
+                     explanation=_explanation(result.model_dump(mode="json")),
+                     metadata={"terminal_reason": result.terminal_reason,
+                               "construct_status": result.construct_status,
+                               "checks": result.checks})
+
+    return score
+
+
+def score_values(line: dict[str, Any]) -> dict[str, float]:
+    """A result line's named scores (NaN for a value it has none of)."""
+    values = {name: _number(line.get(field)) for name, field in SCORES.items()}
+    blocks = line.get("cross_construct") or {}
+    for name, dim in zip(DIMENSION_SCORES, DIMENSIONS, strict=True):
+        values[name] = _number((blocks.get(dim) or {}).get("score"))
+    return values
+
+
+def _identifiers(line: dict[str, Any]) -> dict[str, Any]:
+    return {k: line[k] for k in ("backend", "models", "planner", "obs_mode", "prompt_suite")
+            if line.get(k) is not None}
+
+
+def _number(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _explanation(line: dict[str, Any]) -> str:
+    return (f"{line.get('terminal_reason')}: checks {line.get('checks')}, construct "
+            f"{line.get('construct_status')}")

@@ -1,0 +1,111 @@
+"""The solver: one episode through our runner and planner graph, its decisions made by
+Inspect's model (the ``inspect`` transport, `models.inspect_client`).
+
+The trajectory and the result line go into the sample's store (`TRAJECTORY`, `RESULT`):
+`inspect view` shows them, the scorer scores the trajectory, `cocobench import-inspect`
+writes them as a run folder. An episode whose model calls got no answer (Inspect gave up
+after its retries) is an infrastructure failure, as in `cocobench run`: the sample ends in
+an error (Inspect's ``--retry-on-error`` runs it again), never in a score.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from inspect_ai.model import ModelOutput, get_model
+from inspect_ai.model._model import model_roles
+from inspect_ai.solver import Generate, Solver, TaskState, solver
+
+from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, run_episode
+from cocobench_agents.graphs import NO_MODEL, planner_spec
+from cocobench_agents.graphs.node_errors import PlannerNodeError
+from cocobench_agents.harness.episodes import PlannedEpisode
+from cocobench_agents.models import ModelPool
+from cocobench_agents.models.inspect_client import InspectLimitReached
+from cocobench_agents.models.settings import ModelSettings
+from cocobench_agents.runfolder.episode_key import EpisodeKey
+from cocobench_agents.runfolder.infra import is_infra_failure
+
+TRAJECTORY = "cocobench:trajectory"  # the store key of the episode's trajectory document
+RESULT = "cocobench:result"  # … and of its result line
+
+
+class EpisodeInfraError(RuntimeError):
+    """The episode does not measure the model (a model call got no answer after Inspect's
+    retries, a planner node or the simulator failed): Inspect records the sample's error."""
+
+
+@solver
+def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings) -> Solver:
+    """Run the sample's episode (`planned` by sample id) with Inspect's model."""
+    settings = settings.model_copy(update={"transport": "inspect"})
+
+    async def solve(state: TaskState, generate: Generate) -> TaskState:
+        episode = planned[str(state.sample_id)]
+        key = _key(episode, state.epoch - 1)
+        spec = dataclasses.replace(
+            episode.spec, models=seat_models(episode), sample_index=key.epoch,
+            episode_key=key.folder().removeprefix("episodes/"))
+        try:
+            document, result = await run_episode(spec, ModelPool(settings),
+                                                 controller=spec.controller())
+        except PlannerNodeError as exc:
+            state.store.set(TRAJECTORY, exc.document)  # scored as it stands at a limit
+            if isinstance(exc.__cause__, InspectLimitReached):
+                raise exc.__cause__.limit from None  # Inspect ends the sample at its limit
+            raise EpisodeInfraError(str(exc)) from None
+        line = {**result.model_copy(update={"condition": key.condition, "epoch": key.epoch})
+                .model_dump(mode="json"), **key.as_dict()}
+        state.store.set(TRAJECTORY, document)
+        state.store.set(RESULT, line)
+        state.output = ModelOutput.from_content(key.model, _summary(line))
+        state.completed = True
+        if is_infra_failure(line):
+            raise EpisodeInfraError(infra_message(document))
+        return state
+
+    return solve
+
+
+def seat_models(episode: PlannedEpisode) -> dict[str, str]:
+    """The episode's model strings: Inspect's model for the team; for a decentralized
+    planner, the model of the Inspect model role named after an agent, where there is one."""
+    models = {DEFAULT_MODEL_KEY: _name(get_model())}
+    if planner_spec(episode.spec.planner).decentralized:
+        roles = model_roles()
+        for agent in episode.spec.config.agent_ids:
+            role = roles.get(agent)
+            if isinstance(role, list):
+                role = role[0] if role else None
+            if role is not None:
+                models[agent] = _name(role)
+    return models
+
+
+def _key(episode: PlannedEpisode, epoch: int) -> EpisodeKey:
+    """The episode's key as `cocobench run` keys it: Inspect's model (the label of a planner
+    that calls none, the oracle's, stays), Inspect's epoch counted from 0."""
+    model = episode.key.model if episode.key.model == NO_MODEL else _name(get_model())
+    return dataclasses.replace(episode.key, model=model, epoch=epoch)
+
+
+def _name(model: Any) -> str:
+    """An Inspect model as our model string (``openai/gpt-4o``)."""
+    return str(model)
+
+
+def infra_message(document: dict[str, Any]) -> str:
+    """Why an episode's model calls got no answer (its first backend error)."""
+    for decision in document.get("planner_decisions") or []:
+        if decision.get("status") == "backend_error":
+            return (f"a model call got no answer after Inspect's retries "
+                    f"({decision.get('error_kind')}): {decision.get('error')}")
+    return "a model call got no answer after Inspect's retries"
+
+
+def _summary(line: dict[str, Any]) -> str:
+    cs = line.get("construct_score")
+    return (f"success={line.get('task_success')} construct_score="
+            f"{'unscored' if cs is None else round(cs, 4)} steps={line.get('num_steps')} "
+            f"terminal_reason={line.get('terminal_reason')}")

@@ -1,0 +1,83 @@
+"""The Inspect task `cocobench`: one sample per instance × condition (× prompt-suite arm);
+Inspect's epochs are the episodes' epochs."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from inspect_ai import Task, task
+from inspect_ai.dataset import MemoryDataset, Sample
+
+from cocobench_agents.engine.errors import is_user_error
+from cocobench_agents.engine.resolve import canonical, resolve
+from cocobench_agents.harness.episodes import PlannedEpisode
+
+from .params import TaskParameterError, task_request
+from .scorer import cocobench_scorer
+from .solver import cocobench_solver
+
+REQUEST = "cocobench_request"  # the task metadata's key of the request
+
+
+@task
+def cocobench(task: str | list[str] | None = None, suite: str | list[str] | None = None,
+              conditions: str | list[str] | None = None,
+              planner: str | list[str] | None = None, obs: str | list[str] | None = None,
+              prompt_suite: str | list[str] | None = None, max_steps: int | None = None,
+              backend: str | None = None, **options: Any) -> Task:
+    """CoCoBench episodes decided by Inspect's model (docs/inspect.md).
+
+    Args:
+        task: The instances' source, as `cocobench run --task`: a suite name (cocobench-240,
+            cocobench-full, demo), task-config files or folders, an index or subset file.
+        suite: Another name of `task`.
+        conditions: Conditions such as ``C0_image,D1_blind``, or all, image, blind.
+        planner: Planners (instead of `conditions`), each under the modes of `obs`.
+        obs: Observation modes of `planner` (image, blind).
+        prompt_suite: Prompt suites; several are arms crossed with the conditions.
+        max_steps: Override every instance's step budget.
+        backend: Simulator: embedded (default) or ai2thor.
+        **options: Any other option of `cocobench run`, by its name (``task_id``,
+            ``only_dim``, ``limit``, ``stable_ids``, ``temperature``, ``seed``, …).
+    """
+    params = {"task": task, "suite": suite, "conditions": conditions, "planner": planner,
+              "obs": obs, "prompt_suite": prompt_suite, "max_steps": max_steps,
+              "backend": backend, **options}
+    try:
+        request = canonical(task_request(params))
+        run = resolve(request, notify=lambda _: None)
+    except Exception as exc:
+        if not is_user_error(exc):
+            raise
+        raise TaskParameterError(f"CoCoBench task parameters: {exc}") from None
+    if not run.episodes:
+        raise TaskParameterError("CoCoBench task parameters: they select no instance")
+    planned = {sample_id(p): p for p in run.episodes}
+    return Task(
+        dataset=MemoryDataset([_sample(key, p) for key, p in planned.items()],
+                              name="cocobench"),
+        solver=cocobench_solver(planned, request.model_settings),
+        scorer=cocobench_scorer(),
+        # what `cocobench import-inspect` makes the log's run folder from
+        metadata={REQUEST: request.model_dump(mode="json", exclude={"out", "models"})},
+    )
+
+
+def sample_id(planned: PlannedEpisode) -> str:
+    """A sample's id: its condition, arm and instance (``C0_image/A_D1__FloorPlan1__seed0``)."""
+    key = planned.key
+    return "/".join(part for part in (key.condition, key.arm, key.task_id) if part)
+
+
+def _sample(sid: str, planned: PlannedEpisode) -> Sample:
+    spec, key = planned.spec, planned.key
+    config = spec.config
+    return Sample(
+        id=sid,
+        input=(f"CoCoBench episode {config.task_id} under {key.condition}: the planner "
+               f"{spec.planner} decides for {', '.join(config.agent_ids)} with the model."),
+        metadata={"task_id": config.task_id, "condition": key.condition, "arm": key.arm,
+                  "planner": spec.planner, "obs_mode": spec.obs_mode,
+                  "prompt_suite": spec.prompt_suite, "cell": config.cell,
+                  "dim": config.coordination_dim, "family": config.task_family},
+    )

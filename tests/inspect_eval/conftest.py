@@ -1,0 +1,74 @@
+"""Shared pieces of the Inspect task's tests: real task configs, Inspect's mockllm fed a fixed
+list of replies, and the environment a subprocess `inspect eval` needs offline."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+from pathlib import Path
+
+import pytest
+
+from tests.paths import SHARED_DATA
+
+TASKS = SHARED_DATA / "tasks"
+#: Real configs: a two-agent D1 instance and a three-agent D2 one.
+CONFIGS = ("A_D1__FloorPlan1__seed0.json", "C_D2__FloorPlan202__livingroom_3agent_seed1.json")
+#: The replies both doors are fed: menu ids (valid or not on the menu shown), then a reply
+#: that parses as nothing (it ends the episode, as in the reference), no DONE.
+REPLIES = ["ACTION: 3", "ACTION: 1", "ACTION: 0", "ACTION: 2", "ACTION: 5", "ACTION: 1",
+           "ACTION: 4", "ACTION: 0", "ACTION: 3", "ACTION: 2", "I am not sure."]
+DONE = "ACTION: DONE"  # what a scripted client says once its replies run out
+
+
+def config_paths() -> list[str]:
+    return [str(TASKS / name) for name in CONFIGS]
+
+
+def tokenizer_cache() -> str | None:
+    """A folder holding tiktoken's o200k_base encoding, which mockllm counts tokens with: the
+    copy LiteLLM (a dependency) ships, so that nothing is downloaded."""
+    spec = importlib.util.find_spec("litellm")
+    if spec is None or spec.origin is None:
+        return None
+    folder = Path(spec.origin).parent / "litellm_core_utils" / "tokenizers"
+    return str(folder) if folder.is_dir() else None
+
+
+@pytest.fixture(autouse=True)
+def offline_tokenizer(monkeypatch: pytest.MonkeyPatch) -> None:
+    cache = tokenizer_cache()
+    if cache is not None:
+        monkeypatch.setenv("TIKTOKEN_CACHE_DIR", cache)
+
+
+def subprocess_env() -> dict[str, str]:
+    """This environment with this checkout first on the path (the subprocess imports the
+    tree under test) and the offline tokenizer."""
+    root = str(Path(__file__).resolve().parents[2])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        p for p in (root, os.environ.get("PYTHONPATH")) if p)}
+    cache = tokenizer_cache()
+    if cache is not None:
+        env["TIKTOKEN_CACHE_DIR"] = cache
+    return env
+
+
+def scripted_mockllm(replies: list[str]):
+    """Inspect's mockllm whose `custom_outputs` replays `replies` from the start in every
+    sample × epoch (then ``ACTION: DONE``, as a scripted client does): each episode gets the
+    whole list, as each episode of ``--model scripted:FILE`` does."""
+    from inspect_ai.log._samples import sample_active
+    from inspect_ai.model import ModelOutput, get_model
+
+    cursors: dict[tuple[object, int], int] = {}
+
+    def output(input, tools, tool_choice, config):  # mockllm's signature
+        active = sample_active()
+        key = (active.sample.id, active.epoch)
+        index = cursors.get(key, 0)
+        cursors[key] = index + 1
+        text = replies[index] if index < len(replies) else DONE
+        return ModelOutput.from_content("mockllm/model", text)
+
+    return get_model("mockllm/model", custom_outputs=output, memoize=False)
