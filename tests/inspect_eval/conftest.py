@@ -42,12 +42,20 @@ def offline_tokenizer(monkeypatch: pytest.MonkeyPatch) -> None:
         monkeypatch.setenv("TIKTOKEN_CACHE_DIR", cache)
 
 
-def subprocess_env() -> dict[str, str]:
-    """This environment with this checkout first on the path (the subprocess imports the
-    tree under test) and the offline tokenizer."""
-    root = str(Path(__file__).resolve().parents[2])
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-        p for p in (root, os.environ.get("PYTHONPATH")) if p)}
+def subprocess_env(*, checkout_first: bool = True) -> dict[str, str]:
+    """This environment with the offline tokenizer and, with `checkout_first`, this checkout
+    first on the path (the subprocess imports the tree under test).
+
+    `inspect eval` runs without it: Inspect names a package's tasks (``cocobench_agents/…``)
+    only when the distribution it finds first was installed (or installed editable), and a
+    checkout on the path shows it the ``.egg-info`` pip leaves in the checkout's root, which
+    records no install. It imports the installed package: this checkout, in CI's editable
+    install."""
+    env = dict(os.environ)
+    if checkout_first:
+        root = str(Path(__file__).resolve().parents[2])
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH"))
+                                            if p)
     cache = tokenizer_cache()
     if cache is not None:
         env["TIKTOKEN_CACHE_DIR"] = cache

@@ -195,7 +195,8 @@ def test_the_task_runs_from_the_command_line(tmp_path: Path):
          "-T", f"task={config_paths()[0]}", "-T", "conditions=D1_image,C0_blind",
          "-T", "max_steps=2", "--epochs", "2", "--log-dir", str(tmp_path),
          "--display", "none"],
-        capture_output=True, text=True, env=subprocess_env(), timeout=300, check=False)
+        capture_output=True, text=True, env=subprocess_env(checkout_first=False), timeout=300,
+        check=False)
     assert done.returncode == 0, done.stderr[-3000:]
     [info] = list_eval_logs(str(tmp_path))
     log = read_eval_log(info)
@@ -212,7 +213,8 @@ def test_a_bad_parameter_on_the_command_line_names_it(tmp_path: Path):
     done = subprocess.run(
         [*inspect_command(), "eval", "cocobench_agents/cocobench", "--model", "mockllm/model",
          "-T", "max_steps=0", "--log-dir", str(tmp_path)],
-        capture_output=True, text=True, env=subprocess_env(), timeout=300, check=False)
+        capture_output=True, text=True, env=subprocess_env(checkout_first=False), timeout=300,
+        check=False)
     assert done.returncode == 1
     # our message alone, not a traceback
     assert done.stdout.strip() == "-T max_steps: Input should be greater than or equal to 1"
