@@ -7,6 +7,7 @@ error message AI2-THOR would give; the controller turns that into per-agent meta
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Any
@@ -270,7 +271,14 @@ def _look(sign: float) -> Handler:
 
 
 def reachable_positions(world: World, agent: SimAgent, kw: dict[str, Any]) -> list[dict]:
-    return [{"x": cx * GRID, "y": AGENT_Y, "z": cz * GRID} for cx, cz in sorted(world.floor)]
+    return [{"x": x, "y": AGENT_Y, "z": z} for x, z in _floor_points(world.floor)]
+
+
+@functools.lru_cache(maxsize=256)
+def _floor_points(floor: frozenset[tuple[int, int]]) -> tuple[tuple[float, float], ...]:
+    """The floor's cells as points, in grid order: the floor is static, so a Find's fallback
+    need not sort it again on every call."""
+    return tuple((cx * GRID, cz * GRID) for cx, cz in sorted(floor))
 
 
 def poses(world: World, agent: SimAgent, kw: dict[str, Any]) -> list[dict]:

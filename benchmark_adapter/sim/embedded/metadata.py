@@ -80,6 +80,17 @@ class ObjectTable:
             out.append({**record, "visible": visible(world, agent, obj), "distance": distance})
         return out
 
+    def one_for_agent(self, agent: SimAgent, object_id: str) -> dict[str, Any] | None:
+        """The record `for_agent` holds for `object_id` (None if no such object), built
+        alone."""
+        world = self.world
+        obj = world.objects.get(object_id)
+        if obj is None:
+            return None
+        distance = math.hypot(obj.x - agent.x, obj.z - agent.z)
+        return {**object_record(world, obj), "visible": visible(world, agent, obj),
+                "distance": distance}
+
 
 class AgentMetadata(Mapping[str, Any]):
     """One agent's metadata; `objects` is built on first access."""
@@ -111,6 +122,15 @@ class AgentMetadata(Mapping[str, Any]):
         """Build `objects` now, before the world changes."""
         if self._objects is None:
             self._objects = self._table.for_agent(self._agent)
+
+    def find_object(self, object_id: str) -> dict[str, Any] | None:
+        """The record `objects` holds for `object_id` (None if none). A skill looks up one
+        object after most native actions (a Find's teleports test one target): while
+        `objects` is unbuilt the world is as it was at the snapshot, so the record is built
+        alone, equal to the one `objects` would hold."""
+        if self._objects is None:
+            return self._table.one_for_agent(self._agent, object_id)
+        return next((o for o in self._objects if o["objectId"] == object_id), None)
 
     def __getitem__(self, key: str) -> Any:
         if key == "objects":
