@@ -158,4 +158,10 @@ def _other_positions(session: NativeSession) -> list[tuple[float, float]]:
 
 
 def _near_other(p: Mapping[str, Any], others: Sequence[tuple[float, float]]) -> bool:
-    return any(math.hypot(p["x"] - x, p["z"] - z) < MIN_AGENT_SEPARATION for x, z in others)
+    # A plain loop, not any() over a generator: a Find's fallback ranks every reachable
+    # position with it.
+    px, pz = p["x"], p["z"]
+    for x, z in others:  # noqa: SIM110
+        if math.hypot(px - x, pz - z) < MIN_AGENT_SEPARATION:
+            return True
+    return False
