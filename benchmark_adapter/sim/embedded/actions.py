@@ -271,14 +271,15 @@ def _look(sign: float) -> Handler:
 
 
 def reachable_positions(world: World, agent: SimAgent, kw: dict[str, Any]) -> list[dict]:
-    return [{"x": x, "y": AGENT_Y, "z": z} for x, z in _floor_points(world.floor)]
+    # Shared, read-only (as `interactable_poses`): callers must not mutate them.
+    return _floor_points(world.floor)
 
 
 @functools.lru_cache(maxsize=256)
-def _floor_points(floor: frozenset[tuple[int, int]]) -> tuple[tuple[float, float], ...]:
-    """The floor's cells as points, in grid order: the floor is static, so a Find's fallback
-    need not sort it again on every call."""
-    return tuple((cx * GRID, cz * GRID) for cx, cz in sorted(floor))
+def _floor_points(floor: frozenset[tuple[int, int]]) -> list[dict]:
+    """The floor's cells as positions, in grid order: the floor is static, so a Find's
+    fallback need not sort and build them again on every call."""
+    return [{"x": cx * GRID, "y": AGENT_Y, "z": cz * GRID} for cx, cz in sorted(floor)]
 
 
 def poses(world: World, agent: SimAgent, kw: dict[str, Any]) -> list[dict]:

@@ -157,7 +157,7 @@ class MetadataFactory:
     def snapshot(self) -> list[AgentMetadata]:
         """Every agent's metadata as of now."""
         out = [AgentMetadata(self.table, a, self.scene) for a in self.table.world.agents]
-        self._live.extend(weakref.ref(md) for md in out)
+        self._live.extend(map(weakref.ref, out))
         return out
 
     def before_change(self) -> None:
