@@ -62,6 +62,10 @@ class Episode:
         self._space_key: tuple = ()
         self._menu: list[MenuEntry] = []
         self._menu_key: tuple = ()
+        # Γ and the compact menu by their keys, across steps and resets: the agents move
+        # back and forth, so the same visibility comes back (bounded: cleared when full).
+        self._spaces: dict[tuple, ActionSpace] = {}
+        self._menus: dict[tuple, list[MenuEntry]] = {}
         self.goals = goals.GoalSet(config)
         self._steps: list[dict[str, Any]] = []  # skill_result records, in order
         self._objects: list[dict[str, Any]] = []  # agent 0's objects now
@@ -167,8 +171,11 @@ class Episode:
         # Γ only changes when an object appears, disappears or changes visibility to agent 0.
         key = tuple((o["objectId"], o.get("visible")) for o in self._objects)
         if key != self._space_key:
-            self._space = ActionSpace.build(self.config.agent_ids, self._objects)
-            self._space_key = key
+            space = self._spaces.get(key)
+            if space is None:
+                space = _bounded(self._spaces)[key] = ActionSpace.build(self.config.agent_ids,
+                                                                        self._objects)
+            self._space, self._space_key = space, key
 
     def _compact_menu(self) -> list[MenuEntry]:
         # The compact menu changes with Γ, and in D4 with what lies on the buffer.
@@ -176,8 +183,11 @@ class Episode:
         key = (self._space_key, tuple(tuple(o.get("parentReceptacles") or ())
                                       for o in self._objects) if relay else None)
         if key != self._menu_key:
-            self._menu = compact(self._space, self.config, self._objects)
-            self._menu_key = key
+            menu = self._menus.get(key)
+            if menu is None:
+                menu = _bounded(self._menus)[key] = compact(self._space, self.config,
+                                                            self._objects)
+            self._menu, self._menu_key = menu, key
         return self._menu
 
     def _item(self, label: str, skill_result: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -199,3 +209,14 @@ class Episode:
             self._frame_cache[key] = self.controller.frame(index, self.frame_size,
                                                            self.frame_size)
         return self._frame_cache[key]
+
+
+#: How many Γs (and compact menus) an episode keeps by key.
+MENU_CACHE = 256
+
+
+def _bounded(cache: dict[tuple, Any]) -> dict[tuple, Any]:
+    """`cache`, emptied first when full."""
+    if len(cache) >= MENU_CACHE:
+        cache.clear()
+    return cache

@@ -8,6 +8,7 @@ wording — so tooling that reads the reference's `trajectory.json` reads ours.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -125,11 +126,15 @@ class GoalSet:
     def __init__(self, config: TaskConfig) -> None:
         self.config = config
         self.goals = [(g, Args.of(g, config)) for g in config.goal_predicates]
+        # Each check records its predicate as stated: dumped once, copied per evaluation.
+        self._stated = [g.model_dump(mode="json", exclude_unset=True)
+                        for g in config.goal_predicates]
 
     def evaluate(self, objects: Sequence[Mapping[str, Any]], steps: Steps) -> dict[str, Any]:
         """`{success, checks}` for every goal predicate; a missing object fails its check."""
         by_id = {o["objectId"]: o for o in objects}
-        checks = [_check(goal, args, by_id, steps) for goal, args in self.goals]
+        checks = [_check(goal, args, by_id, steps, _fresh(stated))
+                  for (goal, args), stated in zip(self.goals, self._stated)]
         return {"success": all(c.passed for c in checks),
                 "checks": [c.to_dict() for c in checks]}
 
@@ -153,8 +158,15 @@ def evaluate(
     return GoalSet(config).evaluate(objects, steps)
 
 
-def _check(goal: GoalPredicate, args: Args, by_id: Objects, steps: Steps) -> Check:
-    stated = goal.model_dump(mode="json", exclude_unset=True)
+def _fresh(stated: dict[str, Any]) -> dict[str, Any]:
+    """A copy of a dumped predicate that shares nothing with it."""
+    if all(v is None or isinstance(v, (str, int, float)) for v in stated.values()):
+        return dict(stated)
+    return copy.deepcopy(stated)
+
+
+def _check(goal: GoalPredicate, args: Args, by_id: Objects, steps: Steps,
+           stated: dict[str, Any]) -> Check:
     fn = CHECKS.get(goal.predicate)
     if goal.predicate == "on_sliced_piece":  # counts the pieces: the source may be gone
         return Check(stated, args.source, *fn(by_id, args, steps))

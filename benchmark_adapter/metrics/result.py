@@ -11,7 +11,7 @@ from .constructs import ConstructScore, construct_score, cross_construct_scores
 from .errors import TrajectoryError
 from .failures import failure_kind, planner_stats, terminal_reason
 from .general import DistributedMetrics, GeneralMetrics, distributed_metrics, general_metrics
-from .steps import step_taxonomy, task_config
+from .steps import step_taxonomy, steps_parsed_once, task_config
 from .usage import ModelUsage, model_usage
 
 if TYPE_CHECKING:
@@ -128,6 +128,11 @@ def score_trajectory(traj: Mapping[str, Any], **identifiers: Any) -> EpisodeResu
     Raises :class:`TrajectoryError` when a needed field is missing.
     """
     _check_identifiers(identifiers)
+    with steps_parsed_once():
+        return _score(traj, identifiers)
+
+
+def _score(traj: Mapping[str, Any], identifiers: Mapping[str, Any]) -> EpisodeResult:
     general = general_metrics(traj)
     own = construct_score(traj)
     stats = planner_stats(traj, general.success)  # raw goal success, as the reference

@@ -8,7 +8,9 @@ happens in exactly one place.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import contextlib
+import contextvars
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -141,13 +143,38 @@ def _parse_step(item: Mapping[str, Any], index: int, path: str) -> Step:
     )
 
 
+#: Within `steps_parsed_once()`: the steps parsed per item list (by id, with the list
+#: itself, so an id is never taken for another list's).
+_PARSED: contextvars.ContextVar[dict[int, tuple[list, list[Step]]] | None] = (
+    contextvars.ContextVar("parsed_steps", default=None))
+
+
+@contextlib.contextmanager
+def steps_parsed_once() -> Iterator[None]:
+    """Parse each trajectory's steps once in this block (scoring reads them in every
+    metric): the trajectories must not change inside it."""
+    token = _PARSED.set({})
+    try:
+        yield
+    finally:
+        _PARSED.reset(token)
+
+
 def extract_steps(traj: Mapping[str, Any]) -> list[Step]:
     """All steps of a trajectory (items with a non-empty ``skill_result``), in order."""
-    return [
+    items = trajectory_items(traj)
+    parsed = _PARSED.get()
+    known = parsed.get(id(items)) if parsed is not None else None
+    if known is not None and known[0] is items:
+        return list(known[1])
+    steps = [
         _parse_step(item, i, f"trajectory[{i}]")
-        for i, item in enumerate(trajectory_items(traj))
+        for i, item in enumerate(items)
         if item.get("skill_result")
     ]
+    if parsed is not None:
+        parsed[id(items)] = (items, steps)
+    return list(steps)
 
 
 def allowed_skills_by_agent(config: Mapping[str, Any]) -> dict[str, frozenset[str]]:

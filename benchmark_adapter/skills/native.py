@@ -62,6 +62,9 @@ class NativeSession:
 
 def find_object(metadata: Metadata, object_id: str) -> Mapping[str, Any] | None:
     """The object record with this id in one agent's metadata."""
+    lookup = getattr(metadata, "find_object", None)  # the embedded backend's: no full build
+    if lookup is not None:
+        return lookup(object_id)
     for obj in metadata["objects"]:
         if obj["objectId"] == object_id:
             return obj

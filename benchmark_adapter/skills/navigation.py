@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -36,8 +37,7 @@ def _via_interactable_poses(
     Returns (True, "") on success, (False, error) when a teleport failed, and (None, "")
     when there was nothing to try.
     """
-    own = session.act("GetInteractablePoses", objectId=object_id)
-    poses = own["actionReturn"] if own["lastActionSuccess"] else None
+    poses, _ = _query(session, "GetInteractablePoses", objectId=object_id)
     others = _other_positions(session)
     sx, sy, sz = start["x"], start["y"], start["z"]
     nearest_first = sorted(
@@ -47,37 +47,43 @@ def _via_interactable_poses(
     for pose in nearest_first:
         if _near_other(pose, others):
             continue
-        own = session.act("TeleportFull", **_teleport_args(pose))
-        if _sees(own, object_id):
+        error = _teleport_sees(session, object_id, **_teleport_args(pose))
+        if error is None:
             return True, ""
-        last_error = own["errorMessage"] or ""
+        last_error = error
     return (False, last_error) if last_error else (None, "")
 
 
 def _fallback(session: NativeSession, object_id: str) -> tuple[bool, str]:
     """Reachable positions nearest the object, facing it, trying a few camera horizons."""
     target = session.object(object_id)["position"]
-    own = session.act("GetReachablePositions")
-    if not own["lastActionSuccess"]:
-        return False, own["errorMessage"] or ""
-    positions = own["actionReturn"] or []
+    positions, error = _query(session, "GetReachablePositions")
+    if error is not None:
+        return False, error
+    positions = positions or []
     if not positions:
         return False, f"No reachable positions found for {object_id}"
     others = _other_positions(session)
+    tx, ty, tz = target["x"], target["y"], target["z"]
 
     def rank(p: Mapping[str, float]) -> float:
         penalty = 1000.0 if _near_other(p, others) else 0.0
-        return sum((p.get(k, 0.0) - target[k]) ** 2 for k in ("x", "y", "z")) + penalty
+        # sum(), as before (Python 3.12's sum of floats is compensated, unlike `+`).
+        squares = ((p.get("x", 0.0) - tx) ** 2, (p.get("y", 0.0) - ty) ** 2,
+                   (p.get("z", 0.0) - tz) ** 2)
+        return sum(squares) + penalty
 
     horizons = (30, 0, 60, -30) if target["y"] < AGENT_EYE_HEIGHT + 0.3 else (0, 30, -30, 60)
     last_error = ""
-    for p in sorted(positions, key=rank)[:FALLBACK_CANDIDATES]:
+    # nsmallest is sorted(...)[:n], ties kept in order, without sorting every position.
+    for p in heapq.nsmallest(FALLBACK_CANDIDATES, positions, key=rank):
         if _near_other(p, others):
             continue
         yaw = math.degrees(math.atan2(target["x"] - p["x"], target["z"] - p["z"])) % 360.0
         for horizon in horizons:
-            own = session.act(
-                "TeleportFull",
+            error = _teleport_sees(
+                session,
+                object_id,
                 x=p["x"],
                 y=p.get("y", 0.9),
                 z=p["z"],
@@ -85,10 +91,31 @@ def _fallback(session: NativeSession, object_id: str) -> tuple[bool, str]:
                 horizon=horizon,
                 standing=True,
             )
-            if _sees(own, object_id):
+            if error is None:
                 return True, ""
-            last_error = own["errorMessage"] or ""
+            last_error = error
     return False, last_error or f"Could not navigate to a visible, unoccupied pose for {object_id}"
+
+
+def _query(session: NativeSession, action: str, **kwargs: Any) -> tuple[Any, str | None]:
+    """Run a query: (its actionReturn, None) on success, else (None, its error message).
+
+    The helpers below keep no metadata past their own action: a backend may have to build
+    every snapshot still held in full before the next change (the embedded one does).
+    """
+    own = session.act(action, **kwargs)
+    if own["lastActionSuccess"]:
+        return own["actionReturn"], None
+    return None, own["errorMessage"] or ""
+
+
+def _teleport_sees(session: NativeSession, object_id: str, **pose: Any) -> str | None:
+    """Teleport to `pose`: None when `object_id` is then visible, else the error ("" if
+    none)."""
+    own = session.act("TeleportFull", **pose)
+    if _sees(own, object_id):
+        return None
+    return own["errorMessage"] or ""
 
 
 def _sees(own: Mapping[str, Any], object_id: str) -> bool:
@@ -131,4 +158,10 @@ def _other_positions(session: NativeSession) -> list[tuple[float, float]]:
 
 
 def _near_other(p: Mapping[str, Any], others: Sequence[tuple[float, float]]) -> bool:
-    return any(math.hypot(p["x"] - x, p["z"] - z) < MIN_AGENT_SEPARATION for x, z in others)
+    # A plain loop, not any() over a generator: a Find's fallback ranks every reachable
+    # position with it.
+    px, pz = p["x"], p["z"]
+    for x, z in others:  # noqa: SIM110
+        if math.hypot(px - x, pz - z) < MIN_AGENT_SEPARATION:
+            return True
+    return False

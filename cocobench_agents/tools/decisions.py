@@ -3,6 +3,7 @@ plus what an evaluation harness needs (prompt hash, latency, tokens, cost, retri
 
 from __future__ import annotations
 
+import functools
 import hashlib
 from typing import Any
 
@@ -10,6 +11,7 @@ from cocobench_agents.models.protocol import ModelError, ModelReply
 from cocobench_agents.prompts import ParsedReply
 
 
+@functools.lru_cache(maxsize=64)  # a decision's prompt is hashed when kept and when recorded
 def prompt_hash(prompt: str) -> str:
     """Short stable fingerprint of a rendered prompt."""
     return hashlib.sha256(prompt.encode("utf-8")).hexdigest()[:16]

@@ -30,6 +30,8 @@ from cocobench_agents.prompts import (
 )
 from cocobench_agents.tools.decisions import prompt_hash
 
+#: How many agent menu views an episode keeps (one per agent and menu seen).
+MENU_VIEWS = 1024
 COUNTED_PARSE_ERRORS = ("parse_error", "invalid_action_id")
 
 
@@ -49,7 +51,9 @@ class EpisodeTools:
         self.prompts: dict[str, str] = {}  # every prompt rendered, by `prompt_hash`
         self.counters = {"planner_steps": 0, "parse_errors": 0, "backend_errors": 0}
         self._stable: dict[str, int] = {}
-        self._views: dict[str | None, _MenuView] = {}
+        # Each agent's view by the menu list it was built from (the episode hands the same
+        # list out again when the same menu comes back); `view.source is` guards the id.
+        self._views: dict[tuple[str | None, int], _MenuView] = {}
         self.snapshot: Observation | None = None
         # Called with each landed step's trajectory item (e.g. to stream it to a client).
         self.on_step: Callable[[dict[str, Any]], None] | None = None
@@ -80,16 +84,18 @@ class EpisodeTools:
 
     def _menu_view(self, agent: str | None) -> _MenuView:
         # The episode hands out the same menu list until the menu changes, so each agent's
-        # view is built once per change rather than once per decision.
+        # view is built once per menu rather than once per decision.
         source = self.snapshot.action_menu
-        view = self._views.get(agent)
+        view = self._views.get((agent, id(source)))
         if view is None or view.source is not source:
             entries = source if agent is None else [e for e in source if e.agent == agent]
             if self.stable_ids:  # a call keeps the id it was first shown with
                 entries = [dataclasses.replace(
                     e, action_id=self._stable.setdefault(e.call, len(self._stable) + 1))
                     for e in entries]
-            view = self._views[agent] = _MenuView(source, entries, agent is None)
+            if len(self._views) >= MENU_VIEWS:
+                self._views.clear()
+            view = self._views[agent, id(source)] = _MenuView(source, entries, agent is None)
         return view
 
     def menu_lines(self, agent: str | None = None) -> list[str]:

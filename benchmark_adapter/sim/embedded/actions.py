@@ -7,6 +7,7 @@ error message AI2-THOR would give; the controller turns that into per-agent meta
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Any
@@ -270,7 +271,15 @@ def _look(sign: float) -> Handler:
 
 
 def reachable_positions(world: World, agent: SimAgent, kw: dict[str, Any]) -> list[dict]:
-    return [{"x": cx * GRID, "y": AGENT_Y, "z": cz * GRID} for cx, cz in sorted(world.floor)]
+    # Shared, read-only (as `interactable_poses`): callers must not mutate them.
+    return _floor_points(world.floor)
+
+
+@functools.lru_cache(maxsize=256)
+def _floor_points(floor: frozenset[tuple[int, int]]) -> list[dict]:
+    """The floor's cells as positions, in grid order: the floor is static, so a Find's
+    fallback need not sort and build them again on every call."""
+    return [{"x": cx * GRID, "y": AGENT_Y, "z": cz * GRID} for cx, cz in sorted(floor)]
 
 
 def poses(world: World, agent: SimAgent, kw: dict[str, Any]) -> list[dict]:

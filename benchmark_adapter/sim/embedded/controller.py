@@ -63,6 +63,8 @@ class EmbeddedController:
         agent = world.agents[index]
         if action not in QUERIES:
             meta.before_change()
+        else:
+            meta.before_action()
         result, error = None, ""
         handler = HANDLERS.get(action)
         try:

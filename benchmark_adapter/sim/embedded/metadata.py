@@ -4,15 +4,16 @@ Building every object's record for every agent after every native action dominat
 of a step, and the executor usually reads only a few fields. So each `AgentMetadata` holds its
 scalar fields and builds `objects` on first access. The controller freezes (materialises) any
 metadata still referenced before it changes the world, so a mapping is always a snapshot of
-the moment it was returned.
+the moment it was returned. Likewise a snapshot builds each agent's metadata on first access,
+and the controller builds the rest of any snapshot still referenced before its next action.
 """
 
 from __future__ import annotations
 
 import math
 import weakref
-from collections.abc import Iterator, Mapping
-from typing import Any
+from collections.abc import Iterator, Mapping, Sequence
+from typing import Any, overload
 
 from benchmark_adapter.sim.embedded.vision import visible
 from benchmark_adapter.sim.embedded.world import AGENT_Y, SimAgent, SimObject, World
@@ -80,6 +81,17 @@ class ObjectTable:
             out.append({**record, "visible": visible(world, agent, obj), "distance": distance})
         return out
 
+    def one_for_agent(self, agent: SimAgent, object_id: str) -> dict[str, Any] | None:
+        """The record `for_agent` holds for `object_id` (None if no such object), built
+        alone."""
+        world = self.world
+        obj = world.objects.get(object_id)
+        if obj is None:
+            return None
+        distance = math.hypot(obj.x - agent.x, obj.z - agent.z)
+        return {**object_record(world, obj), "visible": visible(world, agent, obj),
+                "distance": distance}
+
 
 class AgentMetadata(Mapping[str, Any]):
     """One agent's metadata; `objects` is built on first access."""
@@ -112,6 +124,15 @@ class AgentMetadata(Mapping[str, Any]):
         if self._objects is None:
             self._objects = self._table.for_agent(self._agent)
 
+    def find_object(self, object_id: str) -> dict[str, Any] | None:
+        """The record `objects` holds for `object_id` (None if none). A skill looks up one
+        object after most native actions (a Find's teleports test one target): while
+        `objects` is unbuilt the world is as it was at the snapshot, so the record is built
+        alone, equal to the one `objects` would hold."""
+        if self._objects is None:
+            return self._table.one_for_agent(self._agent, object_id)
+        return next((o for o in self._objects if o["objectId"] == object_id), None)
+
     def __getitem__(self, key: str) -> Any:
         if key == "objects":
             self.freeze()
@@ -126,22 +147,75 @@ class AgentMetadata(Mapping[str, Any]):
         return len(self._data) + 1
 
 
+class Snapshot(Sequence[AgentMetadata]):
+    """Every agent's metadata as of one moment, each agent's built on first access (a
+    Find's teleports read only the acting agent's). Its factory builds the rest before the
+    next action changes any agent, so every entry is of that moment."""
+
+    __slots__ = ("__weakref__", "_agents", "_built", "_factory")
+
+    def __init__(self, factory: MetadataFactory, agents: list[SimAgent]) -> None:
+        self._factory, self._agents = factory, agents
+        self._built: list[AgentMetadata | None] = [None] * len(agents)
+
+    def __len__(self) -> int:
+        return len(self._agents)
+
+    @overload
+    def __getitem__(self, index: int) -> AgentMetadata: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[AgentMetadata]: ...
+
+    def __getitem__(self, index: int | slice) -> AgentMetadata | list[AgentMetadata]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self._agents)))]
+        md = self._built[index]  # an IndexError as a list's
+        if md is None:
+            md = self._built[index] = self._factory.metadata(self._agents[index])
+        return md
+
+    def build(self) -> None:
+        """Build every agent's metadata now."""
+        for i, md in enumerate(self._built):
+            if md is None:
+                self._built[i] = self._factory.metadata(self._agents[i])
+
+
 class MetadataFactory:
-    """Hands out metadata snapshots and freezes the live ones before each world change."""
+    """Hands out metadata snapshots; builds what live snapshots have not built before each
+    action, and freezes the live metadata before each world change."""
 
     def __init__(self, world: World, scene: str) -> None:
         self.table = ObjectTable(world)
         self.scene = scene
         self._live: list[weakref.ref[AgentMetadata]] = []
+        self._snapshots: list[weakref.ref[Snapshot]] = []
 
-    def snapshot(self) -> list[AgentMetadata]:
+    def snapshot(self) -> Snapshot:
         """Every agent's metadata as of now."""
-        out = [AgentMetadata(self.table, a, self.scene) for a in self.table.world.agents]
-        self._live.extend(weakref.ref(md) for md in out)
+        out = Snapshot(self, self.table.world.agents)
+        self._snapshots.append(weakref.ref(out))
         return out
+
+    def metadata(self, agent: SimAgent) -> AgentMetadata:
+        """`agent`'s metadata as of now."""
+        md = AgentMetadata(self.table, agent, self.scene)
+        self._live.append(weakref.ref(md))
+        return md
+
+    def before_action(self) -> None:
+        """Build every entry a live snapshot has not built: any action changes the acting
+        agent's last action."""
+        for ref in self._snapshots:
+            snapshot = ref()
+            if snapshot is not None:
+                snapshot.build()
+        self._snapshots = []
 
     def before_change(self) -> None:
         """Freeze every snapshot someone still holds."""
+        self.before_action()
         for ref in self._live:
             md = ref()
             if md is not None:
