@@ -15,12 +15,10 @@ import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cache
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("benchmark_adapter", "cocobench_agents")
+from tests.source import PACKAGES, modules
 
 # The layer tables: each row is a layer, the top one first; each entry a unit (a module or
 # subpackage, named relative to its package; `__init__` is the package's own `__init__`). A
@@ -86,16 +84,6 @@ class Import:
 
 # -- reading the packages --------------------------------------------------------------------
 
-
-@cache
-def modules() -> dict[str, Path]:
-    """Every module of both packages by dotted name (a package by its own name)."""
-    found = {}
-    for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = path.relative_to(ROOT).with_suffix("").parts
-            found[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
-    return found
 
 
 def is_package(module: str) -> bool:

@@ -16,11 +16,10 @@ reference plan.
 from __future__ import annotations
 
 import ast
-from pathlib import Path
 
 from cocobench_agents.graphs import PLANNERS
+from tests.source import ROOT, docstrings
 
-ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "cocobench_agents"
 GRAPHS = PACKAGE / "graphs"
 NAMES = frozenset(PLANNERS)
@@ -75,22 +74,12 @@ def names_in(source: str, *, cli: bool) -> list[tuple[int, str]]:
     """(line, name) of every string constant of `source` that is a built-in planner's name,
     docstrings and (with `cli`) `help=` arguments left out."""
     tree = ast.parse(source)
-    skipped = {id(node) for node in _docstrings(tree)}
+    skipped = {id(node) for node in docstrings(tree)}
     if cli:
         skipped |= {id(node) for node in _help_text(tree)}
     return sorted((node.lineno, node.value) for node in ast.walk(tree)
                   if isinstance(node, ast.Constant) and isinstance(node.value, str)
                   and node.value in NAMES and id(node) not in skipped)
-
-
-def _docstrings(tree: ast.Module) -> list[ast.Constant]:
-    out = []
-    for node in ast.walk(tree):
-        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
-            first = node.body[0] if node.body else None
-            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
-                out.append(first.value)
-    return out
 
 
 def _help_text(tree: ast.Module) -> list[ast.AST]:

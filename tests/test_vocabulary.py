@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import ast
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
@@ -36,9 +35,8 @@ from benchmark_adapter.vocabulary import (
     DIMENSIONS,
     OBSERVATION_MODES,
 )
+from tests.source import docstrings, modules
 
-ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("benchmark_adapter", "cocobench_agents")
 HOME = "benchmark_adapter.vocabulary"
 WORDS = (*OBSERVATION_MODES, *DIMENSIONS, *BACKEND_NAMES, *BUILTIN_SUITES)
 
@@ -63,27 +61,6 @@ ALLOWED: dict[tuple[str, str], str] = {
 }
 
 
-def modules() -> dict[str, Path]:
-    """Every module of both packages by dotted name."""
-    found = {}
-    for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = path.relative_to(ROOT).with_suffix("").parts
-            found[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
-    return found
-
-
-def docstrings(tree: ast.Module) -> set[int]:
-    """The ids of the docstring constants of a module and its classes and functions."""
-    out = set()
-    for node in ast.walk(tree):
-        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
-            body = node.body
-            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
-                out.add(id(body[0].value))
-    return out
-
-
 def spelled(text: str) -> Iterator[str]:
     """The vocabulary words a string constant spells (the module docstring's rules)."""
     if text in WORDS:
@@ -99,7 +76,7 @@ def spellings() -> dict[tuple[str, str], list[int]]:
         if module == HOME:
             continue
         tree = ast.parse(path.read_text(), str(path))
-        skip = docstrings(tree)
+        skip = {id(node) for node in docstrings(tree)}
         for node in ast.walk(tree):
             if isinstance(node, ast.Constant) and isinstance(node.value, str) \
                     and id(node) not in skip:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import functools
 from collections.abc import Mapping
 from typing import Any, ClassVar
@@ -13,7 +14,13 @@ from pettingzoo.utils.conversions import parallel_to_aec
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.envs.rewards import reward_weights, step_reward
-from cocobench_agents.envs.seated import EnvError, SeatAction, SeatedEpisode, seat_name
+from cocobench_agents.envs.seated import (
+    EnvError,
+    SeatAction,
+    SeatedEpisode,
+    close_loop,
+    seat_name,
+)
 from cocobench_agents.envs.source import instances, one_condition
 from cocobench_agents.envs.spaces import SeatSpaces
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
@@ -46,21 +53,15 @@ class CoCoBenchParallelEnv(ParallelEnv):
         self.configs = instances(source, task_id)
         self.weights = reward_weights(reward)
         self.prompt_suite, self.text, self.max_steps = prompt_suite, text, max_steps
-        self.model, self.partners, self.off_menu = model, dict(partners or {}), off_menu
+        self.model, self.off_menu, self._max_menu = model, off_menu, max_menu
         self.pool = ModelPool()
-        for spec in dict.fromkeys(self.partners.values()):
-            if spec != ORACLE:  # the reference plan, not a model (oracle_partner.py)
-                self.pool.validate(spec)
+        #: The one event loop the episodes' partner calls run on (made with the first episode).
+        self.loop: asyncio.AbstractEventLoop | None = None
         self.render_mode = None
-        planner = planner_spec(self.condition.planner)
         self.possible_agents = _all_seats(self.configs, self.condition.planner)
-        self.learning = [s for s in self.possible_agents if s not in self.partners]
-        robots = max(len(c.agent_ids) for c in self.configs)
         self._frame = _frame_shape(self.configs[0]) if self.condition.obs_mode == IMAGE else None
-        self._spaces = {seat: SeatSpaces(
-            seat, max_menu=max_menu, broadcasts=planner.broadcast,
-            image_shape=self._image_shape(seat, robots)) for seat in self.learning}
         self._episodes: dict[str, SeatedEpisode] = {}
+        self.set_partners(partners or {})
         self._rng = np.random.default_rng(seed)
         self.episode: SeatedEpisode | None = None
         self.agents: list[str] = []
@@ -99,8 +100,30 @@ class CoCoBenchParallelEnv(ParallelEnv):
         return self._outcome(episode, before, items)
 
     def close(self) -> None:
-        for episode in self._episodes.values():
-            episode.close()
+        """Close the partners' connections and the event loop they ran on (a later
+        `reset` starts afresh)."""
+        self._episodes.clear()
+        if self.loop is not None:
+            close_loop(self.loop, self.pool)
+
+    def __del__(self) -> None:
+        loop = getattr(self, "loop", None)
+        if loop is not None:
+            loop.close()  # (no model calls while collected)
+
+    def set_partners(self, partners: Mapping[str, str]) -> None:
+        """Have model specs play the seats `partners` names (checked); the rest learn. Call it
+        before the first `reset` (`SeatEnv` does, once it has checked its seat)."""
+        self.partners = dict(partners)
+        for spec in dict.fromkeys(self.partners.values()):
+            if spec != ORACLE:  # the reference plan, not a model (oracle_partner.py)
+                self.pool.validate(spec)
+        planner = planner_spec(self.condition.planner)
+        self.learning = [s for s in self.possible_agents if s not in self.partners]
+        robots = max(len(c.agent_ids) for c in self.configs)
+        self._spaces = {seat: SeatSpaces(
+            seat, max_menu=self._max_menu, broadcasts=planner.broadcast,
+            image_shape=self._image_shape(seat, robots)) for seat in self.learning}
 
     # -- internals ---------------------------------------------------------------------
 
@@ -142,8 +165,6 @@ class CoCoBenchParallelEnv(ParallelEnv):
     def _live(self) -> SeatedEpisode:
         if self.episode is None:
             raise EnvError("no episode yet: call reset() first")
-        if self.episode.finished and not self.agents and self.episode.result is None:
-            raise EnvError("the episode has ended: call reset()")
         return self.episode
 
     def _seat_spaces(self, seat: str) -> SeatSpaces:
@@ -164,6 +185,8 @@ class CoCoBenchParallelEnv(ParallelEnv):
         return self.configs[int(self._rng.integers(len(self.configs)))]
 
     def _episode_for(self, config: TaskConfig) -> SeatedEpisode:
+        if self.loop is None or self.loop.is_closed():
+            self.loop = asyncio.new_event_loop()
         episode = self._episodes.get(config.task_id)
         if episode is None:
             spec = EpisodeSpec(config, planner=self.condition.planner,
@@ -174,7 +197,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
                         if s in _seats_of(config, self.condition.planner)}
             episode = self._episodes[config.task_id] = SeatedEpisode(
                 spec, partners=partners, pool=self.pool, text=self.text,
-                off_menu=self.off_menu)
+                off_menu=self.off_menu, loop=self.loop)
         return episode
 
     def _image_shape(self, seat: str, robots: int) -> tuple[int, ...] | None:

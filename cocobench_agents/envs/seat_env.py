@@ -10,7 +10,6 @@ import gymnasium
 
 from cocobench_agents.envs.parallel import CoCoBenchParallelEnv, _seats_of
 from cocobench_agents.envs.seated import EnvError
-from cocobench_agents.envs.source import instances, one_condition
 from cocobench_agents.prompts import DEFAULT_SUITE
 
 
@@ -26,18 +25,17 @@ class SeatEnv(gymnasium.Env):
                  task_id: str | None = None, prompt_suite: str = DEFAULT_SUITE,
                  reward: Mapping[str, float] | None = None, seed: int | None = None,
                  **options: Any) -> None:
-        chosen = one_condition(condition)
-        for config in instances(source, task_id):
-            seats = _seats_of(config, chosen.planner)
+        self.team = CoCoBenchParallelEnv(source, condition=condition, task_id=task_id,
+                                         prompt_suite=prompt_suite, reward=reward, seed=seed,
+                                         partners={}, **options)
+        planner = self.team.condition.planner
+        for config in self.team.configs:
+            seats = _seats_of(config, planner)
             if seat not in seats:
                 raise EnvError(f"no seat {seat!r} in {config.task_id} under {condition}: its "
                                f"seats are {', '.join(seats)}")
         self.seat = seat
-        partners = {s: partner for s in _all_seats_of(source, task_id, chosen.planner)
-                    if s != seat}
-        self.team = CoCoBenchParallelEnv(source, condition=condition, task_id=task_id,
-                                         prompt_suite=prompt_suite, reward=reward, seed=seed,
-                                         partners=partners, **options)
+        self.team.set_partners({s: partner for s in self.team.possible_agents if s != seat})
         self.observation_space = self.team.observation_space(seat)
         self.action_space = self.team.action_space(seat)
 
@@ -60,7 +58,3 @@ class SeatEnv(gymnasium.Env):
         """The ended episode's scored result (None before its end)."""
         return self.team.state_result
 
-
-def _all_seats_of(source: str, task_id: str | None, planner: str) -> list[str]:
-    return list(dict.fromkeys(s for c in instances(source, task_id)
-                              for s in _seats_of(c, planner)))

@@ -32,7 +32,7 @@ from cocobench_agents.graphs import (
 )
 from cocobench_agents.graphs.centralized import build_centralized, land_decision
 from cocobench_agents.graphs.decentralized import board, build_decentralized
-from cocobench_agents.graphs.decision import decide, reply_decision
+from cocobench_agents.graphs.decision import decide, no_actions_decision, reply_decision
 from cocobench_agents.graphs.leader_worker import (
     ask_leader,
     build_leader_worker,
@@ -53,7 +53,7 @@ from cocobench_agents.graphs.state import TEAM, team_history
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.protocol import MenuOption, ModelReply
 from cocobench_agents.prompts import load_prompt_suite
-from cocobench_agents.tools import EpisodeTools, stop_decision
+from cocobench_agents.tools import EpisodeTools
 
 #: The action that chooses no menu entry: ``ACTION: DONE`` (also what a waiting seat sends).
 #: Menu ids start at 0, so DONE is -1.
@@ -61,9 +61,9 @@ DONE = -1
 #: The graphs whose rules `SeatedEpisode` applies: a planner built by one of them is stepped.
 STEPPED_GRAPHS = frozenset(f"{build.__module__}:{build.__name__}" for build in (
     build_centralized, build_decentralized, build_leader_worker))
-LEAD, WORK = "lead", "work"
+LEAD, WORK = "lead", "work"  # the two phases of a leader–worker round
 #: What an action off the menu does: raise, or be scored as an invalid id.
-OFF_MENU = ("error", "score")  # the two phases of a leader–worker round
+OFF_MENU = ("error", "score")
 
 
 class EnvError(ValueError):
@@ -131,11 +131,15 @@ class SeatedEpisode:
     rendering prompts (observations then carry no prompt text, and the trajectory's decisions
     name the empty prompt). An action off the seat's menu is an `EnvError`; with
     ``off_menu="score"`` it is scored as a model's reply naming an id not on its menu is (an
-    ``invalid_action_id`` decision), which Gymnasium's checker needs (it samples unmasked)."""
+    ``invalid_action_id`` decision), which Gymnasium's checker needs (it samples unmasked).
+    Partners' model calls run on `loop` when given (its owner closes it: the parallel
+    environment shares one among its episodes), else on a loop the episode makes and
+    `close` closes."""
 
     def __init__(self, spec: EpisodeSpec, *, partners: Mapping[str, str] | None = None,
                  pool: ClientFactory | None = None, text: bool = True,
-                 off_menu: str = "error") -> None:
+                 off_menu: str = "error", loop: asyncio.AbstractEventLoop | None = None
+                 ) -> None:
         if off_menu not in OFF_MENU:
             raise EnvError(f"off_menu must be {' or '.join(map(repr, OFF_MENU))}, not "
                            f"{off_menu!r}")
@@ -158,7 +162,8 @@ class SeatedEpisode:
         self.condition = condition_name(self.planner.code, spec.obs_mode)
         self._suite = load_prompt_suite(spec.prompt_suite)
         self._episode = Episode(spec.config, spec.controller())
-        self._loop: asyncio.AbstractEventLoop | None = None
+        self._loop = loop
+        self._owns_loop = loop is None  # then made on the first partner call
         self.reset()
 
     # -- lifecycle ---------------------------------------------------------------------
@@ -198,13 +203,15 @@ class SeatedEpisode:
         return self.state.get("terminal_reason")
 
     def close(self) -> None:
-        """Close the event loop partners' model calls run on."""
-        if self._loop is not None:
-            self._loop.close()
+        """Close the event loop partners' model calls run on, if the episode made it (the
+        pool's connections for it closed, its pending tasks cancelled)."""
+        if self._owns_loop and self._loop is not None:
+            close_loop(self._loop, self.pool)
             self._loop = None
 
     def __del__(self) -> None:
-        self.close()
+        if getattr(self, "_owns_loop", False) and self._loop is not None:
+            self._loop.close()  # (no model calls while collected)
 
     # -- observing ---------------------------------------------------------------------
 
@@ -339,8 +346,7 @@ class SeatedEpisode:
                                     broadcast=self._broadcasts(agent)))
         view = self.view(seat)
         if not view.menu:  # `decide` makes no call on an empty menu
-            return stop_decision(policy=self.policy, model=self.model, agent=agent,
-                                 step_index=self.tools.step_index, status="no_actions")
+            return no_actions_decision(self.tools, agent, policy=self.policy, model=self.model)
         return reply_decision(self.tools, agent, view.menu, view.prompt,
                               ModelReply(text=move.reply_text()), policy=self.policy,
                               model=self.model, broadcast=view.sends_message)
@@ -376,3 +382,21 @@ class SeatedEpisode:
         """The trajectory items of the steps landed since item `since`."""
         return [i for i in self._episode.items[since:] if "skill_result" in i]
 
+
+def close_loop(loop: asyncio.AbstractEventLoop, pool: object | None = None) -> None:
+    """Close `loop` (not running): `pool`'s connections for it first (``aclose``), then its
+    pending tasks cancelled and awaited."""
+    if loop.is_closed():
+        return
+    try:
+        aclose = getattr(pool, "aclose", None)
+        if aclose is not None:
+            loop.run_until_complete(aclose())
+        pending = asyncio.all_tasks(loop)
+        for task in pending:
+            task.cancel()
+        if pending:
+            loop.run_until_complete(asyncio.gather(*pending, return_exceptions=True))
+        loop.run_until_complete(loop.shutdown_asyncgens())
+    finally:
+        loop.close()

@@ -82,12 +82,8 @@ class CoCoBenchTRLEnv:
     def _step(self, action_id: int, message: str) -> str:
         if self._ended:
             raise EnvError("the episode has ended: no more actions")
-        action: Any = int(action_id)
-        if isinstance(self._env.action_space, dict) or hasattr(self._env.action_space, "spaces"):
-            action = {"action": action, "message": message}
-        elif message:
-            raise EnvError(f"seat {self.seat!r} sends no messages under {self.condition}")
-        observation, reward, terminated, truncated, info = self._env.step(action)
+        observation, reward, terminated, truncated, info = self._env.step(
+            {"action": int(action_id), "message": message})
         self._return += float(reward)
         if terminated or truncated:
             self._ended = True

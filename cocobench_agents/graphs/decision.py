@@ -25,6 +25,13 @@ def accepts_images(client: object) -> bool:
     return bool(getattr(client, "accepts_images", True))
 
 
+def no_actions_decision(tools: EpisodeTools, agent: str | None, *, policy: str,
+                        model: str) -> dict[str, Any]:
+    """The decision on an empty menu, where `decide` asks no model: a ``no_actions`` stop."""
+    return stop_decision(policy=policy, model=model, agent=agent,
+                         step_index=tools.step_index, status="no_actions")
+
+
 async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
                  history: Sequence[str], messages: Sequence[Mapping[str, str]] = (),
                  broadcast: bool = False, retry: RetryPolicy | None = None) -> dict[str, Any]:
@@ -35,8 +42,7 @@ async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
     prompt, images, menu = tools.prompt(agent, history, messages, broadcast,
                                         with_images=accepts_images(client))
     if not menu:
-        return stop_decision(policy=policy, model=client.name, agent=agent,
-                             step_index=tools.step_index, status="no_actions")
+        return no_actions_decision(tools, agent, policy=policy, model=client.name)
     request = ModelRequest(prompt=prompt, images=images, menu=tools.menu_options(agent),
                            agent=agent, sample_index=ctx.sample_index,
                            step_index=tools.step_index)

@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import asyncio
 import functools
-import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, Protocol
+from typing import Any
 
 from benchmark_adapter.metrics import unrun_result
 from cocobench_agents.episode_runner import ClientFactory, has_human_seat, run_episode
@@ -39,15 +38,6 @@ from cocobench_agents.runfolder.folder import RunFolder
 from cocobench_agents.runfolder.result_line import infra_error_line
 
 StepCallback = Callable[[dict[str, Any], dict[str, Any]], None]  # key, landed step
-
-
-class Halt(Protocol):
-    """A flag that stops the starting of episodes: a `threading.Event`, or a
-    `multiprocessing` one that worker processes share."""
-
-    def is_set(self) -> bool: ...
-
-    def set(self) -> None: ...
 
 
 class InProcess:
@@ -79,17 +69,17 @@ async def _run_and_close(episodes: Sequence[PlannedEpisode], folder: RunFolder,
 
 async def run_batch(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool: ClientFactory,
                     *, jobs: int = 1, bounds: Bounds = NO_BOUNDS,
-                    on_event: ExecutorEventHandler = ignore, halt: Halt | None = None) -> None:
+                    on_event: ExecutorEventHandler = ignore) -> None:
     """Run every episode, at most `jobs` at a time, those with a human seat first (the
     person is there when the run starts), then longest step budget first, appending each
     result as it finishes and telling `on_event` of its start, steps and result line. Once
-    the spend limit is reached, or `halt` is set, no further episode starts.
+    the spend limit is reached, or an episode met a fatal model error, no further episode
+    starts.
 
-    An episode that met a fatal model error (`fatal_model_error`: the key refused, no such
-    model) sets `halt`: every later episode would fail the same way. Once the episodes in
+    A fatal model error (`fatal_model_error`: the key refused, no such model) halts the batch:
+    every later episode would fail the same way. Once the episodes in
     flight are stored, that `FatalModelError` is raised."""
     gate = asyncio.Semaphore(max(1, jobs))
-    halt = threading.Event() if halt is None else halt
     limit = bounds.spend
     fatal: list[FatalModelError] = []
 
@@ -99,7 +89,7 @@ async def run_batch(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool:
     async def one(planned: PlannedEpisode, human: bool) -> None:
         async with gate:
             # Left pending: --resume (with a higher limit, or once the key is fixed) runs it.
-            if halt.is_set() or (limit is not None and limit.reached()):
+            if fatal or (limit is not None and limit.reached()):
                 return
             on_event(EpisodeStarted(start_key(planned)))
             timeout = bounds.human_timeout_s if human else bounds.episode_timeout_s
@@ -110,7 +100,6 @@ async def run_batch(episodes: Sequence[PlannedEpisode], folder: RunFolder, pool:
         error = fatal_model_error(record, document)
         if error is not None:
             fatal.append(error)
-            halt.set()
 
     humans = {id(p): has_human_seat(p.spec) for p in episodes}
     ordered = sorted(longest_first(episodes), key=lambda p: not humans[id(p)])

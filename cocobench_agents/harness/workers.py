@@ -145,7 +145,9 @@ class _Supervisor:
             for capacity in self.capacities:
                 self._launch(capacity)
             while self.queue or any(w.in_flight for w in self.workers):
-                if self.limit is not None:  # it counts what `on_event` was told: tell all
+                if self.limit is not None and self._can_hand_out():
+                    # The limit counts what `on_event` was told: tell all before deciding
+                    # whether another episode starts (and only then: a drain waits on fsync).
                     self.writer.drain()
                 if self.fatal is not None or (self.limit is not None and self.limit.reached()):
                     self.queue.clear()  # left pending: --resume runs them
@@ -197,12 +199,20 @@ class _Supervisor:
 
     # -- the queue --------------------------------------------------------------------------
 
+    def _can_hand_out(self) -> bool:
+        """Whether `_hand_out` would start the next queued episode now."""
+        return bool(self.queue) and bool(self._ready(alone=self.queue[0][1]))
+
+    def _ready(self, *, alone: bool) -> list[_Worker]:
+        """The workers that can take an episode now (one that must run alone: idle ones)."""
+        return [w for w in self.workers if (not w.in_flight if alone else w.free() > 0)]
+
     def _hand_out(self) -> None:
         """Queued episodes to workers with free slots, the least busy first; an episode that
         must run alone waits for an idle worker."""
         while self.queue:
             index, alone = self.queue[0]
-            ready = [w for w in self.workers if (not w.in_flight if alone else w.free() > 0)]
+            ready = self._ready(alone=alone)
             if not ready:
                 return
             worker = min(ready, key=lambda w: len(w.in_flight))

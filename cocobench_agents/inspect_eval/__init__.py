@@ -3,8 +3,9 @@
 by Inspect's model, and scores them as our result lines (docs/inspect.md).
 
 Needs ``pip install 'cocobench-agents[inspect]'``; the package's modules import `inspect_ai`.
-Only Inspect (through the ``inspect_ai`` entry point) and ``cocobench import-inspect`` import
-the package: ``import cocobench_agents`` never loads Inspect.
+Only Inspect (the ``inspect_ai`` entry point names this package: importing it registers the
+task) and ``cocobench import-inspect`` import the package: ``import cocobench_agents`` never
+loads Inspect.
 """
 
 from .task import cocobench

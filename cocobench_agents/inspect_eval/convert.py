@@ -1,7 +1,8 @@
 """An Inspect log of the `cocobench` task as a run folder (``cocobench import-inspect LOG
 --out RUN``): `run.json` from the request the task recorded, each sample's trajectory and
 result line as `cocobench run` writes them, so that `cocobench view`, `report` and `score`
-read the episodes. A sample that ended in an error is an infrastructure error's line."""
+read the episodes. A sample that ended in an error is an infrastructure error's line; one
+an Inspect usage limit ended is scored as it stands."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from typing import Any
 
 from inspect_ai.log import EvalLog, EvalSample, read_eval_log
 
+from benchmark_adapter.metrics import score_trajectory
 from cocobench_agents.engine.records import run_record
 from cocobench_agents.engine.request import RunRequest
 from cocobench_agents.engine.resolve import resolve
@@ -18,7 +20,7 @@ from cocobench_agents.harness.batch import infra_error_record
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.runfolder.folder import RunFolder
 
-from .solver import RESULT, TRAJECTORY
+from .solver import RESULT, TRAJECTORY, result_line
 from .task import REQUEST, sample_id
 
 
@@ -36,18 +38,20 @@ class ImportedRun:
 
 
 def import_log(log_path: str | Path, out: str | Path) -> ImportedRun:
-    """Write the run folder `out` (new) of the Inspect log at `log_path`."""
+    """Write the run folder `out` (new) of the Inspect log at `log_path`. Every sample is
+    checked against the recorded request before anything is written."""
     log = _read(Path(log_path))
     resolved = resolve(_request(log, Path(out)), notify=lambda _: None)
     planned = {(sample_id(p), p.key.epoch): p for p in resolved.episodes}
+    samples = [(sample, _episode(sample, planned)) for sample in log.samples or []]
     folder = RunFolder(out)
     folder.create(run_record(resolved))
     errors = 0
-    for sample in log.samples or []:
-        record = _record(folder, sample, planned)
+    for sample, episode in samples:
+        record = _record(folder, sample, episode)
         errors += bool(record.get("infra_error"))
         folder.append_result(record)
-    return ImportedRun(Path(out), len(log.samples or []), errors)
+    return ImportedRun(Path(out), len(samples), errors)
 
 
 def _read(path: Path) -> EvalLog:
@@ -74,21 +78,27 @@ def _request(log: EvalLog, out: Path) -> RunRequest:
         "epochs": log.eval.config.epochs or 1})
 
 
-def _record(folder: RunFolder, sample: EvalSample,
-            planned: dict[tuple[str, int], PlannedEpisode]) -> dict[str, Any]:
-    """A sample's result line (its trajectory written)."""
-    line, document = sample.store.get(RESULT), sample.store.get(TRAJECTORY)
+def _episode(sample: EvalSample, planned: dict[tuple[str, int], PlannedEpisode]
+             ) -> PlannedEpisode:
+    """The planned episode a sample ran (`InspectLogError` for one the request has none of)."""
     episode = planned.get((str(sample.id), sample.epoch - 1))
     if episode is None:
         raise InspectLogError(f"sample {sample.id!r} (epoch {sample.epoch}) is not an episode "
                               "of the recorded request")
+    return episode
+
+
+def _record(folder: RunFolder, sample: EvalSample, episode: PlannedEpisode) -> dict[str, Any]:
+    """A sample's result line (its trajectory written). A sample an Inspect usage limit
+    ended left its trajectory but no line: it is scored as it stands, as the scorer did."""
+    line, document = sample.store.get(RESULT), sample.store.get(TRAJECTORY)
     key = episode.key
-    if sample.error is None and line is not None and document is not None:
+    if sample.error is None and document is not None:
+        if line is None:
+            line = result_line(score_trajectory(document, **episode.spec.identifiers()), key)
         return {**line, "trajectory": folder.write_trajectory(key, document)}
     error = sample.error.message if sample.error is not None else "the sample left no result"
-    record = infra_error_record(PlannedEpisode(key, episode.spec), error,
-                                sample.total_time or 0.0)
+    record = infra_error_record(episode, error, sample.total_time or 0.0)
     if document is not None:
         record["trajectory"] = folder.write_trajectory(key, document)
     return record
-

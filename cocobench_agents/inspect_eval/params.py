@@ -1,6 +1,7 @@
 """The task's parameters (``-T name=value``): named as `cocobench run`'s options, they become
 a `RunRequest`, validated by it with its messages. Settings Inspect owns (the model, epochs,
-concurrency, limits, the log) are refused with the Inspect option that sets them."""
+concurrency, limits, the log) are refused with the Inspect option that sets them; those with
+no counterpart under Inspect (the worker watchdogs, Ray, the baselines) as not available."""
 
 from __future__ import annotations
 
@@ -25,15 +26,21 @@ INSPECT_OWNS = {
     "agent_models": "--model-role AGENT=PROVIDER/MODEL",
     "epochs": "--epochs N", "out": "--log-dir DIR", "jobs": "--max-samples N",
     "workers": "--max-samples N", "executor": "--max-samples N",
-    "ray_address": "--max-samples N", "ray_wait": "--max-samples N",
-    "thor_gpus_per_worker": "--max-samples N", "max_cost": "--cost-limit USD",
-    "max_total_tokens": "--token-limit N", "episode_timeout": "--time-limit S",
-    "stall_timeout": "--time-limit S", "episode_memory": "--time-limit S",
+    "max_cost": "--cost-limit USD", "max_total_tokens": "--token-limit N",
+    "episode_timeout": "--time-limit S",
     "max_retries": "--max-retries N", "timeout": "--timeout S", "timeout_s": "--timeout S",
     "max_concurrency": "--max-connections N", "api_base": "--model-base-url URL",
     "api_key_env": "the provider's key variable", "transport": "--model PROVIDER/MODEL",
-    "cache": "Inspect's own response cache", "preflight": "nothing (no preflight)",
-    "no_preflight": "nothing (no preflight)", "baselines": "`cocobench run --baselines`",
+    "cache": "Inspect's own response cache",
+}
+_IN_PROCESS = "Inspect runs the samples in its own process; --max-samples N sets how many at once"
+#: `cocobench run` options with no counterpart under Inspect, and why.
+NOT_UNDER_INSPECT = {
+    "episode_memory": "Inspect runs the samples in its own process, with no worker to stop",
+    "stall_timeout": "Inspect runs the samples in its own process, with no worker to stop",
+    "ray_address": _IN_PROCESS, "ray_wait": _IN_PROCESS, "thor_gpus_per_worker": _IN_PROCESS,
+    "preflight": "the task calls no preflight", "no_preflight": "the task calls no preflight",
+    "baselines": "run the reference rows with `cocobench run --baselines`",
 }
 #: How our messages name a setting: its option, then its field.
 _OPTION_NAMED = re.compile(r"--[\w-]+ \((?P<name>\w+)\)")
@@ -55,6 +62,9 @@ def task_request(params: dict[str, Any]) -> RunRequest:
         if name in INSPECT_OWNS:
             raise TaskParameterError(
                 f"-T {name}: Inspect sets this for a CoCoBench task; use {INSPECT_OWNS[name]}")
+        if name in NOT_UNDER_INSPECT:
+            raise TaskParameterError(
+                f"-T {name}: not available under Inspect ({NOT_UNDER_INSPECT[name]})")
     if "suite" in given and "task" in given:
         raise TaskParameterError("-T suite and -T task name the same setting (the instances' "
                                  "source): give one")

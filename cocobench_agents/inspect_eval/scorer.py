@@ -34,14 +34,13 @@ def cocobench_scorer() -> Any:
         if document is None:
             return Score.unscored(reason="no trajectory",
                                   explanation="the episode left no trajectory")
-        line = {**(state.store.get(RESULT) or {})}
-        result = score_trajectory(document, **_identifiers(line))
-        values = score_values(result.model_dump(mode="json"))
-        return Score(value=values, answer=state.output.completion,
-                     explanation=_explanation(result.model_dump(mode="json")),
-                     metadata={"terminal_reason": result.terminal_reason,
-                               "construct_status": result.construct_status,
-                               "checks": result.checks})
+        line = state.store.get(RESULT) or {}
+        result = score_trajectory(document, **_identifiers(line)).model_dump(mode="json")
+        return Score(value=score_values(result), answer=state.output.completion,
+                     explanation=_explanation(result),
+                     metadata={"terminal_reason": result["terminal_reason"],
+                               "construct_status": result["construct_status"],
+                               "checks": result["checks"]})
 
     return score
 

@@ -14,15 +14,15 @@ import dataclasses
 from typing import Any
 
 from inspect_ai.model import ModelOutput, get_model
-from inspect_ai.model._model import model_roles
 from inspect_ai.solver import Generate, Solver, TaskState, solver
 
+from benchmark_adapter.metrics import EpisodeResult
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, run_episode
 from cocobench_agents.graphs import NO_MODEL, planner_spec
 from cocobench_agents.graphs.node_errors import PlannerNodeError
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.models import ModelPool
-from cocobench_agents.models.inspect_client import InspectLimitReached
+from cocobench_agents.models.inspect_client import InspectLimitReached, role_model
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.runfolder.episode_key import EpisodeKey
 from cocobench_agents.runfolder.infra import is_infra_failure
@@ -55,8 +55,7 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
             if isinstance(exc.__cause__, InspectLimitReached):
                 raise exc.__cause__.limit from None  # Inspect ends the sample at its limit
             raise EpisodeInfraError(str(exc)) from None
-        line = {**result.model_copy(update={"condition": key.condition, "epoch": key.epoch})
-                .model_dump(mode="json"), **key.as_dict()}
+        line = result_line(result, key)
         state.store.set(TRAJECTORY, document)
         state.store.set(RESULT, line)
         state.output = ModelOutput.from_content(key.model, _summary(line))
@@ -73,14 +72,17 @@ def seat_models(episode: PlannedEpisode) -> dict[str, str]:
     planner, the model of the Inspect model role named after an agent, where there is one."""
     models = {DEFAULT_MODEL_KEY: _name(get_model())}
     if planner_spec(episode.spec.planner).decentralized:
-        roles = model_roles()
         for agent in episode.spec.config.agent_ids:
-            role = roles.get(agent)
-            if isinstance(role, list):
-                role = role[0] if role else None
+            role = role_model(agent)
             if role is not None:
                 models[agent] = _name(role)
     return models
+
+
+def result_line(result: EpisodeResult, key: EpisodeKey) -> dict[str, Any]:
+    """An episode's scored result as the result line `cocobench run` writes for `key`."""
+    return {**result.model_copy(update={"condition": key.condition, "epoch": key.epoch})
+            .model_dump(mode="json"), **key.as_dict()}
 
 
 def _key(episode: PlannedEpisode, epoch: int) -> EpisodeKey:

@@ -41,14 +41,23 @@ def inspect_model(agent: str | None) -> Any:
     """The Inspect model deciding for `agent` (None: the team): the model role named after
     the agent when the eval defines one, else the eval's model."""
     from inspect_ai.model import get_model
-    from inspect_ai.model._model import active_model, model_roles
+    from inspect_ai.model._model import active_model
 
     if active_model() is None:
         raise ModelConfigError("inspect", _OUTSIDE)
-    role = model_roles().get(agent) if agent else None
-    if isinstance(role, list):  # a list assigned to one role: its first model decides
-        role = role[0] if role else None
+    role = role_model(agent) if agent else None
     return role if role is not None else get_model()
+
+
+def role_model(agent: str) -> Any:
+    """The model of the running eval's Inspect model role named `agent` (the first, where a
+    list is assigned to the role); None where the eval defines no such role."""
+    from inspect_ai.model._model import model_roles
+
+    role = model_roles().get(agent)
+    if isinstance(role, list):
+        role = role[0] if role else None
+    return role
 
 
 class InspectClient(RemoteClient):

@@ -8,7 +8,7 @@ import json
 import os
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 from urllib.parse import unquote, urlsplit, urlunsplit
 
 from pydantic import BaseModel, ConfigDict, field_validator
@@ -28,7 +28,9 @@ LOCAL_PLACEHOLDER_KEY = "no-key-required"
 #: How remote models are called: through LiteLLM (the default, any provider), or ``http``, a
 #: lean OpenAI-compatible client for high-concurrency runs (see `openai_http`), or ``inspect``,
 #: the model of a running Inspect eval (see `inspect_client`).
-TRANSPORTS = ("litellm", "http", "inspect")
+Transport = Literal["litellm", "http", "inspect"]
+#: The transports' names (the ``--transport`` choice).
+TRANSPORTS: tuple[str, ...] = get_args(Transport)
 #: The transports that call a model's endpoint themselves (``inspect`` asks Inspect's model,
 #: which calls it): what the endpoint tests run against a local server.
 ENDPOINT_TRANSPORTS = ("litellm", "http")
@@ -104,7 +106,7 @@ class ModelSettings(BaseModel):
     max_reply_chars: int = shaping(
         16_384, ge=1, description="Longer replies are cut to this length (the characters "
                                   "dropped are counted, never noted in the text).")
-    transport: Literal["litellm", "http", "inspect"] = shaping(
+    transport: Transport = shaping(
         "litellm", flag="--transport",
         description="How remote models are called: LiteLLM (any provider), or http, a lean "
                     "OpenAI-compatible client for openai/NAME models (for high --jobs "

@@ -295,3 +295,30 @@ def test_an_oracle_partner_plays_its_part_of_the_reference_plan(condition):
     assert info["task_success"] == 1
     decisions = episode.document["planner_decisions"]
     assert {d["model"] for d in decisions if d["agent"] == "agent_1"} == {"oracle"}
+
+
+def test_closing_the_env_closes_its_one_loop_and_the_partners_clients():
+    import asyncio
+
+    from benchmark_adapter.tasks import load_tasks
+    from cocobench_agents.envs import parallel_env
+
+    environment = parallel_env("demo", condition="D0_blind", partners={"agent_1": "greedy"},
+                               max_steps=3)
+    closed = []
+
+    class Remote:  # a remote partner's client, as the pool keeps it
+        async def aclose(self):
+            closed.append(asyncio.get_running_loop())
+
+    environment.pool._remote["remote/model"] = Remote()
+    for config in load_tasks("demo")[:2]:
+        environment.reset(options={"task_id": config.task_id})
+        while environment.agents:
+            environment.step(dict.fromkeys(environment.agents, -1))
+        assert environment.state_result is not None
+    episodes = list(environment._episodes.values())
+    loop = environment.loop
+    assert len(episodes) == 2 and all(e._loop is loop for e in episodes)
+    environment.close()
+    assert loop.is_closed() and closed == [loop]

@@ -132,3 +132,21 @@ def _cocobench(*args: str) -> subprocess.CompletedProcess:
 
 def _results(out: Path) -> list[dict]:
     return [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+
+
+def test_workers_that_always_crash_leave_every_episode_recorded_as_an_error(tmp_path,
+                                                                             monkeypatch):
+    """A worker process that dies at once, every time (a broken install, a native crash):
+    each episode runs again alone once, then is recorded as an infrastructure error naming
+    the exit code; the run ends, nothing is lost and no process is left behind."""
+    from cocobench_agents.harness import workers
+
+    monkeypatch.setattr(workers, "_work", lambda *args: os._exit(3))  # forked: inherited
+    planned = plan()[:3]
+    folder = RunFolder(tmp_path / "run")
+    folder.create({"name": "crashes"})
+    WorkerProcesses().run(planned, folder, ModelPool(), ExecutionSettings(jobs=2, workers=2))
+    records = list(folder.results())
+    assert len(records) == len(planned)
+    assert all("worker process died (exit code 3)" in r["infra_error"] for r in records)
+    assert multiprocessing.active_children() == []

@@ -157,6 +157,7 @@ def test_a_provider_failure_is_the_samples_infrastructure_error(tmp_path: Path):
 
     from cocobench_agents.inspect_eval.solver import TRAJECTORY
     from cocobench_agents.inspect_eval.task import cocobench
+    from cocobench_agents.runfolder.folder import RunFolder
 
     class Unavailable(Exception):
         status_code = 503
@@ -176,6 +177,22 @@ def test_a_provider_failure_is_the_samples_infrastructure_error(tmp_path: Path):
     assert not sample.scores  # no score: not a model failure
     decisions = sample.store[TRAJECTORY]["planner_decisions"]
     assert decisions[0]["status"] == "backend_error"
+    # imported, the sample is an infrastructure error's line with its trajectory
+    out = tmp_path / "imported"
+    done = _import(log.location, out)
+    assert done.returncode == 0, done.stderr
+    assert "1 episodes, 1 infrastructure errors" in done.stdout
+    [line] = RunFolder(out).results()
+    assert line["infra_error"] and "the provider is down" in line["infra_error"]
+    written = json.loads((out / line["trajectory"]).read_text())
+    assert written["planner_decisions"][0]["status"] == "backend_error"
+
+
+def _import(log: str, out: Path) -> subprocess.CompletedProcess[str]:
+    """`cocobench import-inspect LOG --out OUT`."""
+    return subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "import-inspect", log, "--out",
+         str(out)], capture_output=True, text=True, env=subprocess_env(), check=False)
 
 
 def inspect_command() -> list[str]:
@@ -268,11 +285,37 @@ def test_an_inspect_log_becomes_a_run_folder_the_viewer_reads(tmp_path: Path):
     assert "Traceback" not in bad.stderr
 
 
+def test_a_log_with_a_sample_the_request_lacks_writes_no_run_folder(tmp_path: Path):
+    from inspect_ai.log import read_eval_log, write_eval_log
+
+    from cocobench_agents.runfolder.folder import RunFolder
+
+    log = read_eval_log(_inspect_eval(tmp_path, REPLIES, task=config_paths()[0],
+                                      conditions="C0_blind,D1_blind", max_steps=2).location)
+    stray = tmp_path / "stray.eval"
+    log.samples[-1].id = "D2_blind/A_D1__FloorPlan1__seed0"  # not a requested condition
+    write_eval_log(log, str(stray))
+    out = tmp_path / "imported"
+    done = _import(str(stray), out)
+    assert done.returncode == 2, done.stderr
+    assert "'D2_blind/A_D1__FloorPlan1__seed0' (epoch 1) is not an episode of the recorded " \
+           "request" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert not out.exists()  # checked before anything was written
+    # the folder is free for the log as Inspect wrote it
+    done = _import(log.location, out)
+    assert done.returncode == 0, done.stderr
+    assert len(list(RunFolder(out).results())) == 2
+
+
 def test_an_inspect_usage_limit_ends_the_sample_scored_as_it_stands(tmp_path: Path):
     from inspect_ai import eval as inspect_eval
     from inspect_ai.log import read_eval_log
 
+    from cocobench_agents.inspect_eval.scorer import score_values
     from cocobench_agents.inspect_eval.task import cocobench
+    from cocobench_agents.runfolder.folder import RunFolder
+    from cocobench_agents.runfolder.infra import is_infra_failure
 
     [log] = inspect_eval(cocobench(task=config_paths()[0], conditions="C0_blind,D1_blind"),
                          model=scripted_mockllm(REPLIES), log_dir=str(tmp_path),
@@ -284,3 +327,17 @@ def test_an_inspect_usage_limit_ends_the_sample_scored_as_it_stands(tmp_path: Pa
         assert sample.limit.type == "token"
         steps = sample.scores["cocobench_scorer"].value["steps"]
         assert 0 < steps < 12  # the budget is 22: the limit stopped it
+    # imported, each sample is a normal result line, scored as Inspect scored it
+    out = tmp_path / "imported"
+    done = _import(log.location, out)
+    assert done.returncode == 0, done.stderr
+    assert "infrastructure errors" not in done.stdout
+    lines = {(line["condition"], line["epoch"]): line for line in RunFolder(out).results()}
+    assert len(lines) == len(log.samples)
+    for sample in log.samples:
+        line = lines[(sample.id.partition("/")[0], sample.epoch - 1)]
+        assert not is_infra_failure(line), line
+        assert line["model"] == "mockllm/model" and (out / line["trajectory"]).is_file()
+        scores = sample.scores["cocobench_scorer"].value
+        expected = score_values(line)
+        assert all(_same(scores[k], expected[k]) for k in expected), (line, scores)

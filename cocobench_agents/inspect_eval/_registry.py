@@ -1,6 +1,0 @@
-"""What Inspect's ``inspect_ai`` entry point loads: the task, registered as
-``cocobench_agents/cocobench``."""
-
-from .task import cocobench
-
-__all__ = ["cocobench"]
