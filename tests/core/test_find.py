@@ -149,3 +149,51 @@ def test_find_a_missing_object(kitchen: Sim) -> None:
     assert GHOST in result.errorMessage
     assert result.native_trace == []
     assert kitchen.pose(0) == start
+
+
+def _rank(others, target):
+    """The fallback's exact rank (navigation._fallback's), outside the function."""
+    from benchmark_adapter.skills.navigation import NEAR_PENALTY, _near_other
+
+    tx, ty, tz = target
+
+    def rank(p):
+        squares = ((p.get("x", 0.0) - tx) ** 2, (p.get("y", 0.0) - ty) ** 2,
+                   (p.get("z", 0.0) - tz) ** 2)
+        return sum(squares) + (NEAR_PENALTY if _near_other(p, others) else 0.0)
+    return rank
+
+
+def test_the_shortlist_holds_exactly_what_nsmallest_picks_over_every_position() -> None:
+    """The numpy shortlist of a Find's fallback changes nothing: on a grid (many equal
+    distances), with targets on and off the grid and teammates on the separation boundary,
+    the first 16 by rank are the same positions in the same order."""
+    import heapq
+
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from benchmark_adapter.skills.navigation import (
+        FALLBACK_CANDIDATES,
+        _may_rank_first,
+    )
+
+    grid = [{"x": 0.25 * i, "y": 0.9, "z": 0.25 * j} for i in range(-12, 13)
+            for j in range(-12, 13)]
+    coordinate = st.one_of(st.integers(-14, 14).map(lambda i: 0.25 * i),
+                           st.floats(-4, 4, allow_nan=False))
+    teammate = st.one_of(st.tuples(coordinate, coordinate),
+                         st.tuples(coordinate, coordinate).map(  # 0.45 m from a cell
+                             lambda p: (round(p[0] * 4) / 4 + 0.45, round(p[1] * 4) / 4)))
+
+    @settings(max_examples=300, deadline=None)
+    @given(target=st.tuples(coordinate, st.floats(0, 2), coordinate),
+           others=st.lists(teammate, max_size=3))
+    def same(target, others):
+        rank = _rank(others, target)
+        shortlist = _may_rank_first(grid, others, target, FALLBACK_CANDIDATES)
+        assert heapq.nsmallest(FALLBACK_CANDIDATES, shortlist, key=rank) == \
+            heapq.nsmallest(FALLBACK_CANDIDATES, grid, key=rank)
+        assert len(shortlist) < len(grid)
+
+    same()

@@ -58,7 +58,8 @@ def test_inspect_and_cocobench_run_score_every_episode_alike(tmp_path: Path):
     lines = {(r["condition"], r["task_id"], r["epoch"]): r
              for r in map(json.loads, (tmp_path / "run" / "results.jsonl").read_text()
                           .splitlines())}
-    assert len(lines) == len(ours) == 12 and not ours.errors
+    assert len(lines) == len(ours) == 12
+    assert not ours.errors, [r["infra_error"] for r in ours.errors]
 
     log = read_eval_log(_inspect_eval(tmp_path, REPLIES, task=config_paths(),
                                       conditions=CONDITIONS, max_steps=MAX_STEPS).location)
