@@ -41,7 +41,8 @@ def random_actions(observations: dict, rng: np.random.Generator) -> dict:
         mask = observation["action_mask"]
         ids = np.flatnonzero(mask if isinstance(mask, np.ndarray) else mask["action"]) - 1
         menu = ids[1:] if len(ids) > 1 else ids
-        choice = int(rng.choice(menu))
+        # An index, not rng.choice(menu): choice took 10 µs a call, a tenth of a step.
+        choice = int(menu[int(rng.integers(len(menu)))])
         actions[seat] = choice if isinstance(mask, np.ndarray) else \
             {"action": choice, "message": ""}
     return actions

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 from benchmark_adapter.tasks.config import TaskConfig
@@ -37,7 +38,7 @@ class MenuEntry:
     skill: str
     args: tuple[str, ...] = ()
 
-    @property
+    @cached_property  # (an entry outlives many menus; each menu's options name its call)
     def call(self) -> str:
         """The skill-call string the executor runs."""
         return f"{self.skill}({', '.join((self.agent, *self.args))})"

@@ -26,6 +26,15 @@ from tests.viewer.browser import why_unavailable as browser_missing
 # A local Ray binds to the machine's network address by default; tests keep all their traffic
 # on loopback (Ray reads this when it is first imported, and its processes inherit it).
 os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+# LiteLLM fetches its model cost map from the internet when first imported unless told not
+# to; our code tells it (`import_litellm`), but a test that imports LiteLLM itself, first, in
+# this process or a subprocess, would reach out (and wait for three failed attempts offline).
+os.environ.setdefault("LITELLM_LOCAL_MODEL_COST_MAP", "True")
+# Hugging Face's libraries (datasets, TRL, transformers) send telemetry and look for newer
+# files on the Hub unless told they are offline: the tests use only local files.
+for _name in ("HF_HUB_OFFLINE", "HF_HUB_DISABLE_TELEMETRY", "HF_DATASETS_OFFLINE",
+              "TRANSFORMERS_OFFLINE"):
+    os.environ.setdefault(_name, "1")
 
 # A shell that starts the tests in the background (`pytest &`, nohup, a CI runner without job
 # control) starts them with Ctrl-C (SIGINT) ignored, and an ignored signal stays ignored in

@@ -13,8 +13,6 @@ from pathlib import Path
 
 import pytest
 
-from cocobench_agents.api import evaluate
-
 from .conftest import REPLIES, config_paths, scripted_mockllm, subprocess_env
 
 pytestmark = pytest.mark.needs_inspect
@@ -53,13 +51,20 @@ def test_inspect_and_cocobench_run_score_every_episode_alike(tmp_path: Path):
 
     script = tmp_path / "replies.json"
     script.write_text(json.dumps(REPLIES))
-    ours = evaluate(config_paths(), models=f"scripted:{script}", out=tmp_path / "run",
-                    conditions=CONDITIONS, max_steps=MAX_STEPS)
+    # `cocobench run` as a user runs it: its own process, whose workers fork from it (not
+    # from this test process, which holds Inspect, torch and the rest by now).
+    tasks = [arg for path in config_paths() for arg in ("--task", path)]
+    done = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "run", *tasks, "--model",
+         f"scripted:{script}", "--conditions", CONDITIONS, "--max-steps", str(MAX_STEPS),
+         "--out", str(tmp_path / "run")],
+        capture_output=True, text=True, env=subprocess_env(), timeout=600, check=False)
+    assert done.returncode == 0, done.stderr[-3000:]
     lines = {(r["condition"], r["task_id"], r["epoch"]): r
              for r in map(json.loads, (tmp_path / "run" / "results.jsonl").read_text()
                           .splitlines())}
-    assert len(lines) == len(ours) == 12
-    assert not ours.errors, [r["infra_error"] for r in ours.errors]
+    assert len(lines) == 12
+    assert not [r["infra_error"] for r in lines.values() if r.get("infra_error")]
 
     log = read_eval_log(_inspect_eval(tmp_path, REPLIES, task=config_paths(),
                                       conditions=CONDITIONS, max_steps=MAX_STEPS).location)

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import cocobench_agents as cb
 from benchmark_adapter.metrics.steps import extract_steps
+from cocobench_agents.cli import main
 from cocobench_agents.runfolder.result_line import CS_NOTE
 from cocobench_agents.runfolder.summary import LEGEND, summary_rows
 from cocobench_agents.viewer.pages import Pages
@@ -163,6 +164,30 @@ def test_missing_trajectory_shows_the_result_line_only(run_copy: Path) -> None:
     html = pages.episode(episode)
     assert "missing or unreadable" in html and record["terminal_reason"] in html
     assert pages.compare(record["task_id"]) is not None
+
+
+def test_an_infrastructure_error_line_gets_its_episode_page(run_copy: Path) -> None:
+    """A line of an episode that could not run (a runaway, a crash) carries no progress, steps
+    or trajectory: its page says so and shows the error, in the served and exported viewer."""
+    from benchmark_adapter.metrics import unrun_result
+    from benchmark_adapter.tasks import load_tasks
+    from cocobench_agents.runfolder.episode_key import EpisodeKey
+    from cocobench_agents.runfolder.result_line import infra_error_line
+
+    record = results(run_copy)[0]
+    [config] = [c for c in load_tasks("cocobench-240") if c.task_id == record["task_id"]]
+    key = EpisodeKey(record["model"], record["condition"], record["task_id"], epoch=3)
+    line = infra_error_line(key, "memory: the episode grew its worker by more than 2048 MB",
+                            unrun_result(config, planner=record["planner"]))
+    with open(run_copy / "results.jsonl", "a") as f:
+        f.write(json.dumps(line) + "\n")
+    pages = pages_of(run_copy)
+    episode = next(e for e in pages.catalog.episodes() if e.key.epoch == 3)
+    html = html_text.unescape(pages.episode(episode))
+    assert "grew its worker by more than 2048 MB" in html and "missing or unreadable" in html
+    assert re.search(r"<dt>progress</dt><dd>—", html) and re.search(r"<dt>steps</dt><dd>—", html)
+    assert main(["view", str(run_copy), "--export", str(run_copy.parent / "site")]) == 0
+    assert list((run_copy.parent / "site").rglob("*@e3*.html"))
 
 
 def test_live_reads_only_appended_lines_and_waits_for_a_torn_one(run_copy: Path) -> None:
