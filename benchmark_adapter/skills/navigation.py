@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any
-
-import numpy as np
 
 from benchmark_adapter.skills.native import NativeSession, find_object
 from benchmark_adapter.skills.result import SkillResult
@@ -16,7 +13,6 @@ from benchmark_adapter.skills.result import SkillResult
 MIN_AGENT_SEPARATION = 0.45  # metres, horizontal: Find never picks a pose this close to a teammate
 FALLBACK_CANDIDATES = 16
 AGENT_EYE_HEIGHT = 0.9
-NEAR_PENALTY = 1000.0  # added to the rank of a fallback position next to a teammate
 
 
 def find(session: NativeSession, object_id: str) -> SkillResult:
@@ -71,7 +67,7 @@ def _fallback(session: NativeSession, object_id: str) -> tuple[bool, str]:
     tx, ty, tz = target["x"], target["y"], target["z"]
 
     def rank(p: Mapping[str, float]) -> float:
-        penalty = NEAR_PENALTY if _near_other(p, others) else 0.0
+        penalty = 1000.0 if _near_other(p, others) else 0.0
         # sum(), as before (Python 3.12's sum of floats is compensated, unlike `+`).
         squares = ((p.get("x", 0.0) - tx) ** 2, (p.get("y", 0.0) - ty) ** 2,
                    (p.get("z", 0.0) - tz) ** 2)
@@ -80,8 +76,7 @@ def _fallback(session: NativeSession, object_id: str) -> tuple[bool, str]:
     horizons = (30, 0, 60, -30) if target["y"] < AGENT_EYE_HEIGHT + 0.3 else (0, 30, -30, 60)
     last_error = ""
     # nsmallest is sorted(...)[:n], ties kept in order, without sorting every position.
-    shortlist = _may_rank_first(positions, others, (tx, ty, tz), FALLBACK_CANDIDATES)
-    for p in heapq.nsmallest(FALLBACK_CANDIDATES, shortlist, key=rank):
+    for p in heapq.nsmallest(FALLBACK_CANDIDATES, positions, key=rank):
         if _near_other(p, others):
             continue
         yaw = math.degrees(math.atan2(target["x"] - p["x"], target["z"] - p["z"])) % 360.0
@@ -100,63 +95,6 @@ def _fallback(session: NativeSession, object_id: str) -> tuple[bool, str]:
                 return True, ""
             last_error = error
     return False, last_error or f"Could not navigate to a visible, unoccupied pose for {object_id}"
-
-
-def _may_rank_first(positions: Sequence[Mapping[str, float]],
-                    others: Sequence[tuple[float, float]], target: tuple[float, float, float],
-                    count: int) -> list[Mapping[str, float]]:
-    """The positions, in their order, that may be among the `count` of least fallback rank:
-    every one that is, so that `nsmallest` over them picks exactly what it picks over all.
-
-    Ranking every position in Python cost 1.4 ms a fallback (634 positions, half a random
-    Find's time); with this shortlist, 0.2 ms. numpy computes each rank to within `_SLACK`
-    of the exact one; a position whose lower bound exceeds the `count`-th smallest upper
-    bound cannot be among them."""
-    if len(positions) <= count:
-        return list(positions)
-    xyz = _coordinates(positions)
-    squares = (xyz - np.asarray(target)) ** 2
-    distance = squares[:, 0] + squares[:, 1] + squares[:, 2]
-    slack = _SLACK * (1.0 + distance)
-    near_sure, near_maybe = _near_bounds(xyz, others)
-    upper = distance + slack + NEAR_PENALTY * near_maybe
-    lower = distance - slack + NEAR_PENALTY * near_sure
-    threshold = np.partition(upper, count - 1)[count - 1]
-    return [positions[i] for i in np.flatnonzero(lower <= threshold)]
-
-
-_SLACK = 1e-9  # relative: far above float64 rounding of a sum of three squares
-_COORDINATES: OrderedDict[int, tuple[Sequence[Mapping[str, float]], np.ndarray]] = \
-    OrderedDict()
-
-
-def _coordinates(positions: Sequence[Mapping[str, float]]) -> np.ndarray:
-    """The positions' (x, y, z), kept for the last few lists (the embedded backend returns
-    the same list for a scene every time; the entry holds the list, so its id stays its)."""
-    key = id(positions)
-    kept = _COORDINATES.get(key)
-    if kept is not None and kept[0] is positions:
-        _COORDINATES.move_to_end(key)
-        return kept[1]
-    xyz = np.array([(p.get("x", 0.0), p.get("y", 0.0), p.get("z", 0.0)) for p in positions],
-                   dtype=float)
-    _COORDINATES[key] = (positions, xyz)
-    if len(_COORDINATES) > 64:
-        _COORDINATES.popitem(last=False)
-    return xyz
-
-
-def _near_bounds(xyz: np.ndarray, others: Sequence[tuple[float, float]]
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Which positions are surely, and which maybe, within `MIN_AGENT_SEPARATION` of a
-    teammate (the exact test, `_near_other`, lies between)."""
-    sure = np.zeros(len(xyz), dtype=bool)
-    maybe = np.zeros(len(xyz), dtype=bool)
-    for x, z in others:
-        gap = np.hypot(xyz[:, 0] - x, xyz[:, 2] - z)
-        sure |= gap < MIN_AGENT_SEPARATION * (1 - _SLACK)
-        maybe |= gap < MIN_AGENT_SEPARATION * (1 + _SLACK)
-    return sure, maybe
 
 
 def _query(session: NativeSession, action: str, **kwargs: Any) -> tuple[Any, str | None]:

@@ -52,22 +52,11 @@ def parse_reply(text: str | None, menu_ids: Collection[int]) -> ParsedReply:
     choice = match.group(1)
     if choice.upper() == "DONE":
         return ParsedReply("done", mode=mode)
-    action_id = _menu_id(choice, menu_ids)
+    action_id = {str(i): i for i in menu_ids}.get(choice)
     if action_id is None:
         return ParsedReply("invalid_action_id", None, mode, "action id not in current menu",
                            choice)
     return ParsedReply("action", action_id, mode, choice=choice)
-
-
-def _menu_id(choice: str, menu_ids: Collection[int]) -> int | None:
-    """The id in `menu_ids` whose text is exactly `choice` (as ``str(id)`` writes it: ASCII
-    digits, no leading zero), else None; without writing every id as text (11 µs a reply on
-    a 100-entry menu)."""
-    canonical = choice.isascii() and (choice == "0" or not choice.startswith("0"))
-    if not canonical or len(choice) > 18:  # (no menu is a quintillion long)
-        return None
-    action_id = int(choice)
-    return action_id if action_id in menu_ids else None
 
 
 def parse_message(text: str | None) -> str:

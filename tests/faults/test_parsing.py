@@ -72,27 +72,6 @@ def test_a_huge_id_in_a_run_is_the_models_failure_not_an_infra_error(tmp_path) -
     assert decision["parsed_action_id"] == digits and decision["parsed_call"] is None
 
 
-def test_an_id_is_matched_as_its_text_on_the_menu() -> None:
-    """The chosen id is the menu id whose text it is, exactly as the reference matches it
-    (``{str(i): i for i in menu}``): leading zeros, other scripts' digits and numbers past
-    the menu are not ids."""
-    from hypothesis import given, settings
-    from hypothesis import strategies as st
-
-    digits = st.text(st.sampled_from("0123456789٣３"), min_size=1, max_size=25)
-
-    @settings(max_examples=500, deadline=None)
-    @given(choice=st.one_of(digits, st.integers(0, 300).map(str)),
-           menu=st.lists(st.integers(0, 300), max_size=120))
-    def same(choice, menu):
-        parsed = parse_reply(f"ACTION: {choice}", menu)
-        expected = {str(i): i for i in menu}.get(choice)
-        assert parsed.action_id == expected
-        assert parsed.status == ("action" if expected is not None else "invalid_action_id")
-
-    same()
-
-
 def test_parsing_never_raises_on_odd_input() -> None:
     assert parse_reply(None, MENU).status == "parse_error"
     assert parse_reply(b"ACTION: 1", MENU).status == "parse_error"  # type: ignore[arg-type]
