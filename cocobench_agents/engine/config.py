@@ -40,6 +40,7 @@ def layered_request(given: Mapping[str, Any] | None = None, *, config_file: Path
     """The request of `given` values (nested as in `RunRequest`) over `config_file` over
     `base` over the defaults."""
     given = dict(given or {})
+    _one_choice_form(given, "given")
     if config_file is None and base is None:
         # One layer: nothing to merge. Validating it directly spares the command line
         # importing pydantic-settings (0.14 s of a 0.6 s mistake, measured here).
@@ -48,6 +49,9 @@ def layered_request(given: Mapping[str, Any] | None = None, *, config_file: Path
         except ValidationError as exc:
             raise ConfigError("\n".join(_error_lines(exc, given, {}, None))) from None
     file_values = read_config_file(config_file) if config_file is not None else {}
+    _one_choice_form(file_values, str(config_file))
+    if _names(given, PER_PLANNER) and not _names(given, ("conditions",)):
+        given["conditions"] = None  # the planners given replace a file's or record's conditions
     base_values = base.model_dump(mode="python") if base is not None else {}
     try:
         layered = _layers(given, file_values, base_values)()
@@ -55,6 +59,24 @@ def layered_request(given: Mapping[str, Any] | None = None, *, config_file: Path
         raise ConfigError("\n".join(_error_lines(exc, given, file_values, config_file))) \
             from None
     return RunRequest.model_validate(layered.model_dump(mode="python"))
+
+
+#: The other form of the planner × observation choice than ``conditions``.
+PER_PLANNER = ("planners", "obs_modes")
+
+
+def _names(values: Mapping[str, Any], fields: tuple[str, ...]) -> bool:
+    return any(values.get(name) is not None for name in fields)
+
+
+def _one_choice_form(values: Mapping[str, Any], where: str) -> None:
+    """Refuse a layer that names both forms of the planner × observation choice:
+    ``conditions`` replaces ``planners`` × ``obs_modes``, so one of them would be ignored."""
+    if _names(values, ("conditions",)) and _names(values, PER_PLANNER):
+        source = ("--conditions and --planner/--obs" if where == "given"
+                  else f"{where}: conditions and planners/obs_modes")
+        raise ConfigError(f"{source} both given: conditions replace planners × observation "
+                          "modes, so one would be ignored; give one of them")
 
 
 def command_request(given: Mapping[str, Any] | None = None, *,

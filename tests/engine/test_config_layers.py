@@ -148,3 +148,23 @@ def test_a_missing_or_unreadable_config_file_is_exit_2(tmp_path, capsys):
     assert main([*RUN, "--out", str(out), "--config", str(binary)]) == 2
     assert f"{binary}: not UTF-8 text" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_one_form_of_the_planner_choice_per_layer_and_the_upper_layer_decides(tmp_path, capsys):
+    """``conditions`` replaces planners × observation modes: naming both in one layer is an
+    error (one would be ignored); planners given over a file's conditions replace them."""
+    out = ["--out", str(tmp_path / "run")]
+    assert main([*RUN, *out, "--conditions", "C0_blind", "--planner", "leader-worker"]) == 2
+    assert "--conditions and --planner/--obs both given" in capsys.readouterr().err
+    both = tmp_path / "both.yaml"
+    both.write_text("conditions: [C0_blind]\nobs_modes: [blind]\n")
+    assert main([*RUN, *out, "--config", str(both)]) == 2
+    assert f"{both}: conditions and planners/obs_modes both given" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text("conditions: [C0_blind]\n")
+    assert resolved(capsys, *RUN, *out, "--config", str(sweep))["conditions"] == ["C0_blind"]
+    planned = resolved(capsys, *RUN, *out, "--config", str(sweep), "--planner", "leader-worker")
+    assert planned["planners"] == ["leader-worker"] and "conditions" not in planned
+    over = resolved(capsys, *RUN, *out, "--config", str(sweep), "--conditions", "D1_image")
+    assert over["conditions"] == ["D1_image"]
