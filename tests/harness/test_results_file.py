@@ -71,6 +71,28 @@ def test_junk_lines_are_named_and_their_episodes_run_again(run, capfd):
     assert len(done_episodes(run)) == 24
 
 
+def test_a_folder_reads_its_results_again_only_once_they_changed(run):
+    """One read per state of the file, however often a resume asks: an append, a rewrite of
+    the same length or a junk line is seen at once, and what one caller does to its scan
+    does not reach the next."""
+    folder = RunFolder(run)
+    first = folder.scan_results()
+    first.rows.clear()
+    first.latest.clear()
+    again = folder.scan_results()
+    assert len(again.rows) == len(lines(run)) == len(again.latest) > 0
+    assert folder.scan_results(check_trajectories=True).missing == []
+    text = lines(run)
+    write_lines(run, [*text, "junk\n"])
+    scan = folder.scan_results()
+    assert scan.invalid_lines == 1 and len(scan.rows) == len(text)
+    record = json.loads(text[0])
+    swapped = json.dumps({**record, "task_success": 1 - record["task_success"]})
+    write_lines(run, [swapped + " " * (len(text[0]) - len(swapped) - 1) + "\n", *text[1:]])
+    assert (run / "results.jsonl").stat().st_size == len("".join(text))
+    assert folder.scan_results().rows[0]["task_success"] == 1 - record["task_success"]
+
+
 def test_a_torn_last_line_is_repaired_with_a_warning(run, capfd):
     text = lines(run)
     text[-1] = text[-1][:100]  # a kill in the middle of the last write
