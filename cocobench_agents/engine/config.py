@@ -50,8 +50,7 @@ def layered_request(given: Mapping[str, Any] | None = None, *, config_file: Path
             raise ConfigError("\n".join(_error_lines(exc, given, {}, None))) from None
     file_values = read_config_file(config_file) if config_file is not None else {}
     _one_choice_form(file_values, str(config_file))
-    if _names(given, PER_PLANNER) and not _names(given, ("conditions",)):
-        given["conditions"] = None  # the planners given replace a file's or record's conditions
+    _upper_choice_decides(given, file_values)
     base_values = base.model_dump(mode="python") if base is not None else {}
     try:
         layered = _layers(given, file_values, base_values)()
@@ -77,6 +76,17 @@ def _one_choice_form(values: Mapping[str, Any], where: str) -> None:
                   else f"{where}: conditions and planners/obs_modes")
         raise ConfigError(f"{source} both given: conditions replace planners × observation "
                           "modes, so one would be ignored; give one of them")
+
+
+def _upper_choice_decides(*layers: dict[str, Any]) -> None:
+    """The uppermost layer naming a form of the planner × observation choice decides it:
+    planners (or observation modes) there replace the conditions of the layers below."""
+    for layer in layers:
+        if _names(layer, ("conditions",)):
+            return
+        if _names(layer, PER_PLANNER):
+            layer["conditions"] = None
+            return
 
 
 def command_request(given: Mapping[str, Any] | None = None, *,
