@@ -52,7 +52,10 @@ def _folder(out: Path) -> dict[str, Any]:
     run = json.loads((out / "run.json").read_text())
     records = {"request": run.get("request"), "results": lines, "trajectories": trajectories}
     text = json.dumps(_scrub(records, root))
-    return json.loads(text.replace(str(SHARED_TASKS), "<tasks>").replace(repo, "<repo>"))
+    # run.json records paths resolved (a `shared` that is a link is followed).
+    for tasks in sorted({str(SHARED_TASKS.resolve()), str(SHARED_TASKS)}, key=len, reverse=True):
+        text = text.replace(tasks, "<tasks>")
+    return json.loads(text.replace(repo, "<repo>"))
 
 
 def capture(work: Path) -> dict[str, Any]:
