@@ -72,6 +72,7 @@ def test_the_openai_key_variable_is_used_when_no_other_is_named(fake, monkeypatc
 def test_connections_are_closed_without_aclose(fake, fake_key, caplog):
     fake.program(default=ok())
     client = http_client(fake)
+    gc.collect()  # earlier tests' garbage (an anyio stream of Inspect's) warns on its own
     with warnings.catch_warnings(record=True) as caught, caplog.at_level(logging.ERROR):
         warnings.simplefilter("always")
         for _ in range(3):  # one event loop each, as a script calling asyncio.run per episode
