@@ -40,7 +40,7 @@ def layered_request(given: Mapping[str, Any] | None = None, *, config_file: Path
     """The request of `given` values (nested as in `RunRequest`) over `config_file` over
     `base` over the defaults."""
     given = dict(given or {})
-    _one_choice_form(given, "given")
+    _one_choice_form(given, "--conditions and --planner/--obs")
     if config_file is None and base is None:
         # One layer: nothing to merge. Validating it directly spares the command line
         # importing pydantic-settings (0.14 s of a 0.6 s mistake, measured here).
@@ -49,7 +49,7 @@ def layered_request(given: Mapping[str, Any] | None = None, *, config_file: Path
         except ValidationError as exc:
             raise ConfigError("\n".join(_error_lines(exc, given, {}, None))) from None
     file_values = read_config_file(config_file) if config_file is not None else {}
-    _one_choice_form(file_values, str(config_file))
+    _one_choice_form(file_values, f"{config_file}: conditions and planners/obs_modes")
     _upper_choice_decides(given, file_values)
     base_values = base.model_dump(mode="python") if base is not None else {}
     try:
@@ -68,19 +68,18 @@ def _names(values: Mapping[str, Any], fields: tuple[str, ...]) -> bool:
     return any(values.get(name) is not None for name in fields)
 
 
-def _one_choice_form(values: Mapping[str, Any], where: str) -> None:
-    """Refuse a layer that names both forms of the planner × observation choice:
-    ``conditions`` replaces ``planners`` × ``obs_modes``, so one of them would be ignored."""
+def _one_choice_form(values: Mapping[str, Any], both: str) -> None:
+    """Refuse a layer that names both forms of the planner × observation choice (`both` says
+    where): ``conditions`` replace ``planners`` × ``obs_modes``, so one would be ignored."""
     if _names(values, ("conditions",)) and _names(values, PER_PLANNER):
-        source = ("--conditions and --planner/--obs" if where == "given"
-                  else f"{where}: conditions and planners/obs_modes")
-        raise ConfigError(f"{source} both given: conditions replace planners × observation "
+        raise ConfigError(f"{both} both given: conditions replace planners × observation "
                           "modes, so one would be ignored; give one of them")
 
 
 def _upper_choice_decides(*layers: dict[str, Any]) -> None:
     """The uppermost layer naming a form of the planner × observation choice decides it:
-    planners (or observation modes) there replace the conditions of the layers below."""
+    planners (or observation modes) there replace the conditions of the layers below, the
+    recorded request's too (an explicit ``conditions=None`` wins the merge)."""
     for layer in layers:
         if _names(layer, ("conditions",)):
             return

@@ -7,10 +7,10 @@ plays a step of the plan moves the plan on."""
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.oracles import oracle_plan
+from benchmark_adapter.skills.calls import CallSyntaxError, parse_call
 from cocobench_agents.graphs import ORACLE
 from cocobench_agents.models.protocol import ModelReply, ModelRequest
 
@@ -39,8 +39,8 @@ class OracleClient:
 
     accepts_images = False
 
-    def __init__(self, plan: OraclePlan, agent: str | None) -> None:
-        self.name, self.plan, self.agent = ORACLE, plan, agent
+    def __init__(self, plan: OraclePlan) -> None:
+        self.name, self.plan = ORACLE, plan
 
     async def complete(self, request: ModelRequest) -> ModelReply:
         call = self.plan.next_call()
@@ -51,8 +51,9 @@ class OracleClient:
         return ModelReply(text=f"ACTION: {entry.action_id}" if entry else "ACTION: DONE")
 
 
-def _agent_of(call: Any) -> str | None:
-    """`PickUp(agent_1, Apple|…)` → `agent_1`."""
-    if not isinstance(call, str) or "(" not in call:
+def _agent_of(call: str | None) -> str | None:
+    """`PickUp(agent_1, Apple|…)` → `agent_1` (None once the plan is through)."""
+    try:
+        return parse_call(call).agent if call is not None else None
+    except CallSyntaxError:
         return None
-    return call.split("(", 1)[1].split(",", 1)[0].strip()

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import functools
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -18,6 +17,7 @@ from cocobench_agents.envs.seated import (
     EnvError,
     SeatAction,
     SeatedEpisode,
+    check_off_menu,
     close_loop,
     seat_name,
 )
@@ -49,6 +49,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
                  seed: int | None = None, text: bool = True, max_steps: int | None = None,
                  max_menu: int = DEFAULT_MAX_MENU, model: str = DEFAULT_MODEL_NAME,
                  partners: Mapping[str, str] | None = None, off_menu: str = "error") -> None:
+        check_off_menu(off_menu)
         self.condition = one_condition(condition)
         self.configs = instances(source, task_id)
         self.weights = reward_weights(reward)
@@ -68,11 +69,9 @@ class CoCoBenchParallelEnv(ParallelEnv):
 
     # -- PettingZoo's interface ----------------------------------------------------------
 
-    @functools.cache  # noqa: B019 - PettingZoo wants the same space object every call
     def observation_space(self, agent: str):
-        return self._seat_spaces(agent).observation
+        return self._seat_spaces(agent).observation  # (the same object every call)
 
-    @functools.cache  # noqa: B019
     def action_space(self, agent: str):
         return self._seat_spaces(agent).action
 
@@ -85,7 +84,8 @@ class CoCoBenchParallelEnv(ParallelEnv):
         self.episode = self._episode_for(self._pick((options or {}).get("task_id")))
         self.episode.reset()
         self.agents = [s for s in self.episode.seats if s in self.learning]
-        return self._observations(), {s: self._info() for s in self.agents}
+        info = self._info()
+        return self._observations(), {s: dict(info) for s in self.agents}
 
     def step(self, actions: Mapping[str, Any]):
         """Play one phase with the seats' `actions`."""
@@ -115,6 +115,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
         """Have model specs play the seats `partners` names (checked); the rest learn. Call it
         before the first `reset` (`SeatEnv` does, once it has checked its seat)."""
         self.partners = dict(partners)
+        self._episodes.clear()  # built with the partners before
         for spec in dict.fromkeys(self.partners.values()):
             if spec != ORACLE:  # the reference plan, not a model (oracle_partner.py)
                 self.pool.validate(spec)
@@ -138,7 +139,8 @@ class CoCoBenchParallelEnv(ParallelEnv):
         terminations = dict.fromkeys(seats, episode.finished and not truncated)
         truncations = dict.fromkeys(seats, truncated)
         observations = self._observations()
-        infos = {s: self._info() for s in seats}
+        info = self._info()
+        infos = {s: dict(info) for s in seats}
         if episode.finished:
             self.agents = []
         return observations, rewards, terminations, truncations, infos

@@ -108,6 +108,13 @@ def check_stepped(planner: PlannerSpec) -> None:
                        f"({planner.code})")
 
 
+def check_off_menu(off_menu: str) -> None:
+    """Raise `EnvError` unless `off_menu` is one of `OFF_MENU`."""
+    if off_menu not in OFF_MENU:
+        raise EnvError(f"off_menu must be {' or '.join(map(repr, OFF_MENU))}, not "
+                       f"{off_menu!r}")
+
+
 def _client_key(seat: str) -> str:
     """The `PlannerContext.clients` key of a seat: "*" for the team's planner and the leader."""
     return DEFAULT_MODEL_KEY if seat in (TEAM_SEAT, LEADER_SEAT) else seat
@@ -140,9 +147,7 @@ class SeatedEpisode:
                  pool: ClientFactory | None = None, text: bool = True,
                  off_menu: str = "error", loop: asyncio.AbstractEventLoop | None = None
                  ) -> None:
-        if off_menu not in OFF_MENU:
-            raise EnvError(f"off_menu must be {' or '.join(map(repr, OFF_MENU))}, not "
-                           f"{off_menu!r}")
+        check_off_menu(off_menu)
         self.off_menu = off_menu
         self.spec, self.text = spec, text
         self.planner = planner_spec(spec.planner)
@@ -174,7 +179,7 @@ class SeatedEpisode:
                                   stable_ids=self.spec.stable_ids)
         self.pool.release(self.spec.episode)  # fresh clients: they keep state per episode
         plan = OraclePlan(self._episode) if ORACLE in self.partners.values() else None
-        clients = {_client_key(s): OracleClient(plan, _client_agent(s)) if model == ORACLE
+        clients = {_client_key(s): OracleClient(plan) if model == ORACLE
                    else self.pool.client(model, episode=self.spec.episode,
                                          agent=_client_agent(s))
                    for s, model in self.partners.items()}

@@ -46,11 +46,9 @@ def import_log(log_path: str | Path, out: str | Path) -> ImportedRun:
     samples = [(sample, _episode(sample, planned)) for sample in log.samples or []]
     folder = RunFolder(out)
     folder.create(run_record(resolved))
-    errors = 0
-    for sample, episode in samples:
-        record = _record(folder, sample, episode)
-        errors += bool(record.get("infra_error"))
-        folder.append_result(record)
+    records = [_record(folder, sample, episode) for sample, episode in samples]
+    folder.append_results(records)  # one write and one fsync for them all
+    errors = sum(bool(r.get("infra_error")) for r in records)
     return ImportedRun(Path(out), len(samples), errors)
 
 

@@ -31,7 +31,7 @@ INSPECT_OWNS = {
     "max_retries": "--max-retries N", "timeout": "--timeout S", "timeout_s": "--timeout S",
     "max_concurrency": "--max-connections N", "api_base": "--model-base-url URL",
     "api_key_env": "the provider's key variable", "transport": "--model PROVIDER/MODEL",
-    "cache": "Inspect's own response cache",
+    "cache": "Inspect's own response cache", "cache_dir": "Inspect's own response cache",
 }
 _IN_PROCESS = "Inspect runs the samples in its own process; --max-samples N sets how many at once"
 #: `cocobench run` options with no counterpart under Inspect, and why.

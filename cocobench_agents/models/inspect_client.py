@@ -41,10 +41,8 @@ def inspect_model(agent: str | None) -> Any:
     """The Inspect model deciding for `agent` (None: the team): the model role named after
     the agent when the eval defines one, else the eval's model."""
     from inspect_ai.model import get_model
-    from inspect_ai.model._model import active_model
 
-    if active_model() is None:
-        raise ModelConfigError("inspect", _OUTSIDE)
+    check_inspect_eval("inspect")
     role = role_model(agent) if agent else None
     return role if role is not None else get_model()
 

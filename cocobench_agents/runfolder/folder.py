@@ -48,6 +48,7 @@ class ResultsScan:
     """What `results.jsonl` holds: its valid lines, and every problem found in it."""
 
     rows: list[dict[str, Any]] = field(default_factory=list)  # valid lines, in file order
+    # (the rows are read-only: a folder hands the same ones to every scan of one file state)
     #: Each episode's latest valid line (an episode whose latest line is invalid is absent).
     latest: dict[EpisodeKey, dict[str, Any]] = field(default_factory=dict)
     #: Episodes of `latest` whose trajectory file is missing (when checked).
@@ -255,19 +256,24 @@ class RunFolder:
         """Read `results.jsonl`, validating every line (`result_line.ResultLine`); with
         `check_trajectories`, also find the episodes whose trajectory file is missing."""
         try:
-            stat = self.results_path.stat()
+            with open(self.results_path, "rb") as results:
+                stat = os.fstat(results.fileno())  # the identity of the bytes read below
+                identity = (stat.st_ino, stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns)
+                if self._scanned is None or self._scanned[0] != identity:
+                    self._scanned = identity, self._scan(results.read())
         except FileNotFoundError:
             return ResultsScan()
-        identity = (stat.st_ino, stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns)
-        if self._scanned is None or self._scanned[0] != identity:
-            self._scanned = identity, self._scan(self.results_path.read_bytes())
         scanned = self._scanned[1]
-        # Copies of the containers: a caller may change its scan, not the next one's.
+        # Copies of the containers (the rows themselves are shared: read-only), so that a
+        # caller may change its scan, not the next one's.
         scan = dataclasses.replace(scanned, rows=list(scanned.rows),
                                    latest=dict(scanned.latest), missing=[],
                                    problems=list(scanned.problems))
         if check_trajectories:
             self._find_missing_trajectories(scan)
+        if len(scan.problems) > SHOWN_PROBLEMS:
+            hidden = len(scan.problems) - SHOWN_PROBLEMS
+            scan.problems[SHOWN_PROBLEMS:] = [f"{self.results_path}: {hidden} more problems"]
         return scan
 
     def _scan(self, data: bytes) -> ResultsScan:
@@ -276,9 +282,6 @@ class RunFolder:
         scan.torn_tail = bool(tail)
         for number, raw in enumerate(lines, start=1):
             self._scan_line(scan, number, raw)
-        if len(scan.problems) > SHOWN_PROBLEMS:
-            hidden = len(scan.problems) - SHOWN_PROBLEMS
-            scan.problems[SHOWN_PROBLEMS:] = [f"{self.results_path}: {hidden} more problems"]
         return scan
 
     def _scan_line(self, scan: ResultsScan, number: int, raw: bytes) -> None:

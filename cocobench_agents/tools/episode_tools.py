@@ -116,14 +116,14 @@ class EpisodeTools:
             text = render_centralized(self.suite, inputs)
         else:
             text = render_distributed(self.suite, inputs, agent, broadcast)
-        return self._kept(text), self._images(agent) if with_images else (), menu
+        return self._kept(text), self.images(agent) if with_images else (), menu
 
     def leader_prompt(self, history: Sequence[str], with_images: bool = True
                       ) -> tuple[str, tuple[bytes, ...]]:
         """The leader–worker strategy's leader prompt and images (the team view)."""
         inputs = self._inputs(self._menu_view(None), history, ())
         text = self._kept(render_leader(self.suite, inputs))
-        return text, self._images(None) if with_images else ()
+        return text, self.images(None) if with_images else ()
 
     def _kept(self, prompt: str) -> str:
         # Decisions record a prompt by its hash; the text goes with the trajectory (the run
@@ -144,9 +144,6 @@ class EpisodeTools:
     def images(self, agent: str | None) -> tuple[bytes, ...]:
         """The frames a decision of `agent` shows (None: the team's merged view); none in
         blind mode."""
-        return self._images(agent)
-
-    def _images(self, agent: str | None) -> tuple[bytes, ...]:
         if self.obs_mode != IMAGE:
             return ()
         if agent is not None:

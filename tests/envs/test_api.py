@@ -273,6 +273,10 @@ def test_unknown_names_are_told():
                 task_id=REAL)
     with pytest.raises(Exception, match="unknown task 'nope'"):
         parallel_env(TASKS, condition="C0_blind", task_id="nope")
+    with pytest.raises(EnvError, match="off_menu must be 'error' or 'score', not 'skip'"):
+        parallel_env(TASKS, condition="C0_blind", task_id=REAL, off_menu="skip")
+    with pytest.raises(EnvError, match="unknown task_id 'nope' in options"):
+        parallel_env(TASKS, condition="C0_blind").reset(options={"task_id": "nope"})
 
 
 @pytest.mark.parametrize("condition", ("D0_blind", "D1_blind", "LW_blind"))

@@ -93,6 +93,20 @@ def test_a_folder_reads_its_results_again_only_once_they_changed(run):
     assert folder.scan_results().rows[0]["task_success"] == 1 - record["task_success"]
 
 
+def test_missing_trajectories_are_counted_past_the_shown_problems(run):
+    """Ten problems are named one by one, the rest counted in one last line, whether they
+    are bad lines or missing trajectories."""
+    from cocobench_agents.runfolder.folder import SHOWN_PROBLEMS
+
+    records = [json.loads(line) for line in lines(run)]
+    for record in records:
+        (run / record["trajectory"]).unlink()
+    scan = RunFolder(run).scan_results(check_trajectories=True)
+    assert len(scan.missing) == len(records) > SHOWN_PROBLEMS + 1
+    assert len(scan.problems) == SHOWN_PROBLEMS + 1
+    assert scan.problems[-1].endswith(f"{len(records) - SHOWN_PROBLEMS} more problems")
+
+
 def test_a_torn_last_line_is_repaired_with_a_warning(run, capfd):
     text = lines(run)
     text[-1] = text[-1][:100]  # a kill in the middle of the last write

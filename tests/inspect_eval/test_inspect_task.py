@@ -141,6 +141,7 @@ def test_the_construct_score_counts_scored_episodes_only(tmp_path: Path):
     ({"conditions": "X9_image"}, "unknown condition 'X9_image'"),
     ({"epochs": 2}, "-T epochs: Inspect sets this for a CoCoBench task; use --epochs N"),
     ({"frobnicate": 1}, "-T frobnicate: no such parameter"),
+    ({"cache_dir": "/tmp/c"}, "-T cache_dir: Inspect sets this for a CoCoBench task"),
     ({"task": "/nonexistent/tasks"}, "/nonexistent/tasks"),
 ])
 def test_bad_parameters_stop_the_run_before_any_sample(tmp_path: Path, args, message):
