@@ -20,6 +20,13 @@ from pydantic.fields import FieldInfo
 Kind = Literal["shaping", "run"]
 KIND_KEY = "x-kind"
 FLAG_KEY = "x-flag"
+#: The prefix of the variables that set `cocobench run`'s options.
+RUN_VARIABLE_PREFIX = "COCOBENCH_RUN_"
+
+
+def run_variable(flag: str) -> str:
+    """The variable that sets option `flag` (``--max-steps``: ``COCOBENCH_RUN_MAX_STEPS``)."""
+    return RUN_VARIABLE_PREFIX + flag.split("/")[0].lstrip("-").replace("-", "_").upper()
 
 
 def shaping(default: Any = ..., *, flag: str | None = None, **kwargs: Any) -> Any:

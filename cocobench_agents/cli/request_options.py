@@ -17,8 +17,9 @@ from benchmark_adapter.vocabulary import BACKEND_NAMES, OBSERVATION_MODES
 from cocobench_agents.engine.request import iter_fields
 from cocobench_agents.harness.execution_settings import ExecutorName
 from cocobench_agents.models.settings import TRANSPORTS
+from cocobench_agents.setting_kinds import RUN_VARIABLE_PREFIX, run_variable
 
-ENV_PREFIX = "COCOBENCH_RUN_"
+ENV_PREFIX = RUN_VARIABLE_PREFIX
 _FIELDS = {path[-1]: info for path, info in iter_fields()}
 
 
@@ -36,7 +37,7 @@ def request_option(*flags: str, name: str, help_text: str | None = None,
     if kwargs.get("multiple"):
         help_text += " Repeatable."
     return click.option(*flags, name, help=help_text,
-                        envvar=ENV_PREFIX + primary.lstrip("-").replace("-", "_").upper(),
+                        envvar=run_variable(primary),
                         show_envvar=True, **kwargs)
 
 

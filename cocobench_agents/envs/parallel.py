@@ -9,6 +9,7 @@ from typing import Any, ClassVar
 import numpy as np
 from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
+from pydantic import ValidationError
 
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import IMAGE
@@ -27,6 +28,7 @@ from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import ORACLE, planner_spec
 from cocobench_agents.graphs.registry import AGENT_SEAT, LEADER_SEAT, TEAM_SEAT
 from cocobench_agents.models import ModelPool
+from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.prompts import DEFAULT_SUITE
 
 #: The largest menu id an action space holds by default (menus of the suites stay far below).
@@ -48,14 +50,15 @@ class CoCoBenchParallelEnv(ParallelEnv):
                  prompt_suite: str = DEFAULT_SUITE, reward: Mapping[str, float] | None = None,
                  seed: int | None = None, text: bool = True, max_steps: int | None = None,
                  max_menu: int = DEFAULT_MAX_MENU, model: str = DEFAULT_MODEL_NAME,
-                 partners: Mapping[str, str] | None = None, off_menu: str = "error") -> None:
+                 partners: Mapping[str, str] | None = None, off_menu: str = "error",
+                 model_settings: ModelSettings | Mapping[str, Any] | None = None) -> None:
         check_off_menu(off_menu)
         self.condition = one_condition(condition)
         self.configs = instances(source, task_id)
         self.weights = reward_weights(reward)
         self.prompt_suite, self.text, self.max_steps = prompt_suite, text, max_steps
         self.model, self.off_menu, self._max_menu = model, off_menu, max_menu
-        self.pool = ModelPool()
+        self.pool = ModelPool(partner_settings(model_settings))
         #: The one event loop the episodes' partner calls run on (made with the first episode).
         self.loop: asyncio.AbstractEventLoop | None = None
         self.render_mode = None
@@ -162,7 +165,10 @@ class CoCoBenchParallelEnv(ParallelEnv):
         if episode.result is not None:  # the episode's result line
             return episode.result.model_dump(mode="json")
         return {"task_id": episode.spec.config.task_id, "step_index": episode.tools.step_index,
-                "phase": episode.phase, "progress": episode.progress()}
+                "phase": episode.phase, "progress": episode.progress(),
+                # Partners' calls that got no answer: the harness counts such an episode as
+                # an infrastructure failure (`runfolder.is_infra_failure`), not a score.
+                "unanswered_calls": episode.tools.counters["backend_errors"]}
 
     def _live(self) -> SeatedEpisode:
         if self.episode is None:
@@ -213,6 +219,21 @@ class CoCoBenchParallelEnv(ParallelEnv):
         return self.episode.result if self.episode is not None else None
 
 
+def partner_settings(given: ModelSettings | Mapping[str, Any] | None) -> ModelSettings:
+    """How the partners' models are called: `given` (settings, or a mapping of their
+    fields), else what the ``COCOBENCH_RUN_*`` variables say, as for `cocobench run`."""
+    try:
+        if given is None:
+            return ModelSettings.from_run_variables()
+        return given if isinstance(given, ModelSettings) else ModelSettings.model_validate(
+            dict(given))
+    except ValidationError as exc:
+        raise EnvError("; ".join(f"model_settings.{'.'.join(map(str, e['loc']))}: {e['msg']}"
+                                 for e in exc.errors())) from None
+    except ValueError as exc:
+        raise EnvError(str(exc)) from None
+
+
 def _failed(landed: list[dict[str, Any]], seat: str) -> int:
     """How many of the landed steps `seat` answers for failed."""
     if seat == LEADER_SEAT:
@@ -258,7 +279,9 @@ def parallel_env(source: str, *, condition: str, task_id: str | None = None,
     `--suite` takes, `condition` one condition code (``D1_blind``). Options: ``text``
     (render prompts; default True), ``max_steps``, ``max_menu``, ``model`` (the name the
     seats' decisions record), ``partners`` (seat → model spec: seats played by a model),
-    ``off_menu`` ("error", or "score": an id off the menu scored as a model's invalid id)."""
+    ``off_menu`` ("error", or "score": an id off the menu scored as a model's invalid id),
+    ``model_settings`` (how the partners' models are called: `ModelSettings` or a mapping of
+    its fields; default: the ``COCOBENCH_RUN_*`` variables', as for `cocobench run`)."""
     return CoCoBenchParallelEnv(source, condition=condition, task_id=task_id,
                                 prompt_suite=prompt_suite, reward=reward, seed=seed, **options)
 

@@ -14,6 +14,7 @@ Seats without a learner are played by model clients through the planners' own `d
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -22,7 +23,12 @@ from benchmark_adapter.episode import Episode
 from benchmark_adapter.metrics import EpisodeResult
 from cocobench_agents.conditions import condition_name
 from cocobench_agents.envs.oracle_partner import OracleClient, OraclePlan
-from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, ClientFactory, EpisodeSpec
+from cocobench_agents.episode_runner import (
+    DEFAULT_MODEL_KEY,
+    ClientFactory,
+    EpisodeSpec,
+    run_retry_policy,
+)
 from cocobench_agents.graphs import (
     ORACLE,
     PlannerContext,
@@ -124,6 +130,20 @@ def _client_agent(seat: str) -> str | None:
     return None if seat in (TEAM_SEAT, LEADER_SEAT) else seat
 
 
+def with_partner_models(spec: EpisodeSpec, partners: Mapping[str, str]) -> EpisodeSpec:
+    """`spec` naming the partners' models beside the learners' (`spec`'s own), as
+    ``--model`` with ``--agent-model`` would, so that the result line says who played each
+    seat."""
+    if not partners:
+        return spec
+    learner = spec.model_for(None)
+    models = {DEFAULT_MODEL_KEY: partners.get(TEAM_SEAT) or partners.get(LEADER_SEAT)
+              or learner}
+    if LEADER_SEAT in partners or set(partners) & set(spec.config.agent_ids):
+        models.update({a: partners.get(a, learner) for a in spec.config.agent_ids})
+    return dataclasses.replace(spec, models=models)
+
+
 def seat_name(seat: Seat) -> str:
     """A seat's name as an environment agent: the robot's id, else its role."""
     return seat.agent if seat.role == AGENT_SEAT else seat.role
@@ -164,6 +184,7 @@ class SeatedEpisode:
         self.learners = [s for s in self.seats if s not in self.partners]
         self.pool = pool if pool is not None else ModelPool()
         self.model = spec.model_for(None)  # the name the learners' decisions record
+        self.spec = with_partner_models(spec, self.partners)
         self.condition = condition_name(self.planner.code, spec.obs_mode)
         self._suite = load_prompt_suite(spec.prompt_suite)
         self._episode = Episode(spec.config, spec.controller())
@@ -184,7 +205,9 @@ class SeatedEpisode:
                                          agent=_client_agent(s))
                    for s, model in self.partners.items()}
         self.ctx = PlannerContext(tools=self.tools, clients=clients, budget=self.spec.budget,
-                                  sample_index=self.spec.sample_index)
+                                  sample_index=self.spec.sample_index,
+                                  retry_policy=(self.planner.retry_policy
+                                                or run_retry_policy(self.pool)))
         self.state: dict[str, Any] = {"agents": self.spec.config.agent_ids, "round_index": 1,
                                       "history": {}, "messages": [], "directives": {},
                                       "terminal_reason": None}

@@ -6,14 +6,14 @@ import base64
 import ipaddress
 import json
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal, get_args
 from urllib.parse import unquote, urlsplit, urlunsplit
 
-from pydantic import BaseModel, ConfigDict, field_validator
+from pydantic import BaseModel, ConfigDict, ValidationError, field_validator
 
-from cocobench_agents.setting_kinds import run_setting, shaping
+from cocobench_agents.setting_kinds import flag_of, run_setting, run_variable, shaping
 
 from .builtin import is_builtin
 from .secrets import named_secrets, redact_named, redact_obj, redact_url, url_credentials
@@ -150,6 +150,22 @@ class ModelSettings(BaseModel):
         if value is not None and not value.isidentifier():
             raise ValueError("must be the NAME of an environment variable")
         return value
+
+    @classmethod
+    def from_run_variables(cls, environ: Mapping[str, str] | None = None) -> ModelSettings:
+        """The settings the ``COCOBENCH_RUN_*`` variables of `environ` (default: this process's)
+        give, as `cocobench run` reads them (`--api-base`: ``COCOBENCH_RUN_API_BASE``; an empty
+        one is unset, as click has it), the defaults for the rest. A bad value is a
+        `ValueError` naming its variable (not the value: an endpoint may carry a password)."""
+        environ = os.environ if environ is None else environ
+        variables = {name: run_variable(flag) for name, info in cls.model_fields.items()
+                     if (flag := flag_of(info)) is not None}
+        given = {name: environ[v] for name, v in variables.items() if environ.get(v)}
+        try:
+            return cls.model_validate(given)
+        except ValidationError as exc:
+            raise ValueError("; ".join(f"{variables[e['loc'][0]]}: {e['msg']}"
+                                       for e in exc.errors())) from None
 
     @property
     def max_attempts(self) -> int:

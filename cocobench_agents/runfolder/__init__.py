@@ -20,6 +20,7 @@ _EXPORTS = {
     "PROMPTS_FILE": ".folder", "RESULTS": ".folder", "RUN_FILE": ".folder",
     "ResultsScan": ".folder", "RunFolder": ".folder",
     "count_infra_failures": ".infra", "is_infra_failure": ".infra", "retry_command": ".infra",
+    "unanswered_calls": ".infra",
     "LOCK_FILE": ".lock", "RunLock": ".lock", "RunLocked": ".lock", "holder": ".lock",
     "CS_NOTE": ".result_line", "ResultLine": ".result_line",
     "infra_error_line": ".result_line", "line_error": ".result_line",

@@ -12,15 +12,21 @@ from typing import Any
 def is_infra_failure(record: Mapping[str, Any]) -> bool:
     """Whether an episode's result does not measure the model: the episode could not run
     (``infra_error``: the harness, the simulator, a timeout), or one of its model calls got no
-    answer after retries (``backend_errors``: HTTP errors, timeouts, an unknown model, input
+    answer after retries (`unanswered_calls`: HTTP errors, timeouts, an unknown model, input
     the model does not take). Such episodes count as failures in success rates, are counted
     as errors everywhere, and are what ``--resume --retry-errors`` runs again."""
-    if record.get("infra_error"):
-        return True
-    try:
-        return int(record.get("backend_errors") or 0) > 0
-    except (TypeError, ValueError):
-        return False
+    return bool(record.get("infra_error")) or unanswered_calls(record) > 0
+
+
+def unanswered_calls(record: Mapping[str, Any]) -> int:
+    """How many of an episode's model calls got no answer after retries: its
+    ``usage.backend_errors`` (every call), or the reference's ``backend_errors`` where larger
+    (that one counts only the decisions the trajectory's steps record, so it misses a call
+    whose round ended the episode: a teammate's DONE beside it)."""
+    usage = record.get("usage")
+    counts = (record.get("backend_errors"),
+              usage.get("backend_errors") if isinstance(usage, Mapping) else None)
+    return max((count for count in counts if isinstance(count, int)), default=0)
 
 
 def count_infra_failures(records: Iterable[Mapping[str, Any]]) -> int:

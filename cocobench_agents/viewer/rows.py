@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from cocobench_agents.conditions import split_condition
+from cocobench_agents.runfolder.infra import unanswered_calls
 from cocobench_agents.viewer.source import Episode
 
 #: (key, header, filterable): the runs page's columns, in order.
@@ -81,8 +82,8 @@ def error_label(record: dict[str, Any]) -> str:
     harness or simulator ended, the counts of backend and parse errors, else "none"."""
     infra = record.get("infra_error")
     parts = [f"infra: {infra}" if isinstance(infra, str) else "infra"] if infra else []
-    for name, counter in (("backend", "backend_errors"), ("parse", "parse_errors")):
-        count = record.get(counter)
+    for name, count in (("backend", unanswered_calls(record)),
+                        ("parse", record.get("parse_errors"))):
         if isinstance(count, int) and count > 0:
             parts.append(f"{name} {count}")
     return ", ".join(parts) or "none"

@@ -132,6 +132,26 @@ def test_a_run_whose_every_call_fails_is_counted_and_exits_1(server, transport, 
     assert summary_errors(stdout, "openai/always-500") == "0"
 
 
+def test_a_failed_call_in_the_round_a_teammate_ends_is_still_an_error(server, transport,
+                                                                      tmp_path, capsys):
+    # agent_1's call fails while agent_2 says DONE: the round ends the episode, so no step
+    # records agent_1's decision and the reference's backend_errors stays 0; the call still
+    # got no answer, so the episode does not measure the model.
+    server.behaviours["always-500"] = SERVER_ERROR
+    out = tmp_path / "run"
+    code, stdout, stderr = cocobench(server, transport, out, "--planner", "D0",
+                                     "--model", "openai/done",
+                                     "--agent-model", "agent_1=openai/always-500",
+                                     "--no-preflight", capsys=capsys)
+    records = results(out)
+    assert [(r["backend_errors"], r["usage"]["backend_errors"]) for r in records] == \
+        [(0, 1), (0, 1)]
+    assert code == 1
+    assert "errors 2" in stderr and f"--out {out} --resume --retry-errors" in stderr
+    row = next(line for line in stdout.splitlines() if "D0_blind" in line)
+    assert row.split()[-1] == "2", row  # the summary's errors column
+
+
 # -- pre-flight -----------------------------------------------------------------------------------
 
 @pytest.mark.parametrize(("model", "behaviour", "message"), [

@@ -101,3 +101,25 @@ def test_cap_reply_cuts_without_adding_text():
     assert cap_reply("short", 10) == ("short", 0)
     assert cap_reply("x" * 10, 10) == ("x" * 10, 0)
     assert cap_reply("x" * 50, 10) == ("x" * 10, 40)
+
+
+def test_the_run_variables_are_the_ones_cocobench_run_reads():
+    from cocobench_agents.cli.run_cmd import run_command
+    from cocobench_agents.setting_kinds import flag_of, run_variable
+
+    read = {p.envvar for p in run_command.params}
+    named = {run_variable(flag) for info in ModelSettings.model_fields.values()
+             if (flag := flag_of(info)) is not None}
+    assert len(named) >= 10 and named <= read, sorted(named - read)
+
+
+def test_settings_from_the_run_variables():
+    environ = {"COCOBENCH_RUN_API_BASE": "http://127.0.0.1:8080/v1", "COCOBENCH_RUN_TIMEOUT": "2.5",
+               "COCOBENCH_RUN_GRAMMAR": "1", "COCOBENCH_RUN_EXTRA": '{"top_p": 0.5}',
+               "COCOBENCH_RUN_SEED": "", "OTHER": "x"}
+    settings = ModelSettings.from_run_variables(environ)
+    assert (settings.api_base, settings.timeout_s, settings.grammar, settings.extra_params,
+            settings.seed) == ("http://127.0.0.1:8080/v1", 2.5, True, {"top_p": 0.5}, None)
+    assert ModelSettings.from_run_variables({}) == ModelSettings()
+    with pytest.raises(ValueError, match="COCOBENCH_RUN_TIMEOUT: Input should be greater than 0"):
+        ModelSettings.from_run_variables({"COCOBENCH_RUN_TIMEOUT": "-1"})

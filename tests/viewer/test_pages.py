@@ -245,3 +245,15 @@ def test_a_human_ai_team_is_named_by_its_seats_models(tmp_path: Path) -> None:
                        r'[^>]*>(\w+)</span></span>', page)
     assert set(seats) == {("agent_1", "human"), ("agent_2", "greedy")}
     assert len(seats) == len(pages.catalog.runs[0].trajectory(episode)["planner_decisions"])
+
+
+def test_the_error_column_counts_every_unanswered_call():
+    from cocobench_agents.viewer.rows import error_label
+
+    # The reference's backend_errors misses a call whose round ended the episode; the
+    # usage counts it.
+    assert error_label({"backend_errors": 0, "usage": {"backend_errors": 1}}) == "backend 1"
+    assert error_label({"backend_errors": 2, "parse_errors": 1,
+                        "usage": {"backend_errors": 2}}) == "backend 2, parse 1"
+    assert error_label({"infra_error": "stalled"}) == "infra: stalled"
+    assert error_label({"backend_errors": 0, "usage": None}) == "none"
