@@ -11,6 +11,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 from pydantic import ValidationError
 
+from benchmark_adapter.sim.embedded.menu_bound import largest_action_id
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.envs.rewards import reward_weights, step_reward
@@ -31,8 +32,6 @@ from cocobench_agents.models import ModelPool
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.prompts import DEFAULT_SUITE
 
-#: The largest menu id an action space holds by default (menus of the suites stay far below).
-DEFAULT_MAX_MENU = 255
 #: The model name the learning seats' decisions and the result line record by default.
 DEFAULT_MODEL_NAME = "env"
 
@@ -49,7 +48,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
     def __init__(self, source: str, *, condition: str, task_id: str | None = None,
                  prompt_suite: str = DEFAULT_SUITE, reward: Mapping[str, float] | None = None,
                  seed: int | None = None, text: bool = True, max_steps: int | None = None,
-                 max_menu: int = DEFAULT_MAX_MENU, model: str = DEFAULT_MODEL_NAME,
+                 max_menu: int | None = None, model: str = DEFAULT_MODEL_NAME,
                  partners: Mapping[str, str] | None = None, off_menu: str = "error",
                  model_settings: ModelSettings | Mapping[str, Any] | None = None) -> None:
         check_off_menu(off_menu)
@@ -57,7 +56,8 @@ class CoCoBenchParallelEnv(ParallelEnv):
         self.configs = instances(source, task_id)
         self.weights = reward_weights(reward)
         self.prompt_suite, self.text, self.max_steps = prompt_suite, text, max_steps
-        self.model, self.off_menu, self._max_menu = model, off_menu, max_menu
+        self.model, self.off_menu = model, off_menu
+        self._max_menu = checked_max_menu(self.configs, max_menu)
         self.pool = ModelPool(partner_settings(model_settings))
         #: The one event loop the episodes' partner calls run on (made with the first episode).
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -219,6 +219,22 @@ class CoCoBenchParallelEnv(ParallelEnv):
         return self.episode.result if self.episode is not None else None
 
 
+def checked_max_menu(configs: list[TaskConfig], max_menu: int | None) -> int:
+    """The largest menu id the action spaces hold: `max_menu`, refused when some instance's
+    menu can show a larger id (`largest_action_id`: its move would land before its next
+    observation could not be made); by default the largest any instance can show."""
+    largest = {c.task_id: largest_action_id(c) for c in configs}
+    if max_menu is None:
+        return max(largest.values())
+    over = {task: n for task, n in largest.items() if n > max_menu}
+    if over:
+        task = max(over, key=over.__getitem__)
+        raise EnvError(f"max_menu={max_menu} is too small: {len(over)} of the source's "
+                       f"instances can show larger menu ids (up to {over[task]}, in {task}); "
+                       f"leave max_menu unset or make it >= {over[task]}")
+    return max_menu
+
+
 def partner_settings(given: ModelSettings | Mapping[str, Any] | None) -> ModelSettings:
     """How the partners' models are called: `given` (settings, or a mapping of their
     fields), else what the ``COCOBENCH_RUN_*`` variables say, as for `cocobench run`."""
@@ -277,7 +293,8 @@ def parallel_env(source: str, *, condition: str, task_id: str | None = None,
                  seed: int | None = None, **options: Any) -> CoCoBenchParallelEnv:
     """CoCoBench as a PettingZoo parallel environment: `source` is anything `--task` /
     `--suite` takes, `condition` one condition code (``D1_blind``). Options: ``text``
-    (render prompts; default True), ``max_steps``, ``max_menu``, ``model`` (the name the
+    (render prompts; default True), ``max_steps``, ``max_menu`` (default: the largest menu id
+    the source's instances can show), ``model`` (the name the
     seats' decisions record), ``partners`` (seat → model spec: seats played by a model),
     ``off_menu`` ("error", or "score": an id off the menu scored as a model's invalid id),
     ``model_settings`` (how the partners' models are called: `ModelSettings` or a mapping of

@@ -225,6 +225,19 @@ def test_an_action_off_the_mask_is_refused():
         environment.step({"agent_1": "3", "agent_2": -1})
 
 
+def test_the_action_space_holds_every_menu_id_and_a_smaller_one_is_refused():
+    from cocobench_agents.envs import EnvError, parallel_env
+
+    # The full suite's menus can reach ids above 255 once objects are sliced.
+    environment = parallel_env("cocobench-full", condition="C0_blind", text=False)
+    assert environment.action_space("team").n > 256 + 1
+    with pytest.raises(EnvError, match=r"max_menu=255 is too small: \d+ of the source's "
+                                       r"instances can show larger menu ids \(up to \d+, in "):
+        parallel_env("cocobench-full", condition="C0_blind", max_menu=255)
+    assert parallel_env(TASKS, condition="D0_blind", task_id=REAL, max_menu=400
+                        ).action_space("agent_1").n == 402
+
+
 def test_a_message_from_a_seat_that_sends_none_is_refused():
     from cocobench_agents.envs import EnvError, parallel_env
 

@@ -12,7 +12,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from benchmark_adapter.sim.embedded.affordances import SLICE_PIECES, affordances_of
+from benchmark_adapter.sim.embedded.affordances import affordances_of, slice_pieces
 from benchmark_adapter.sim.embedded.vision import enclosed, interactable_poses, visible
 from benchmark_adapter.sim.embedded.world import AGENT_Y, GRID, SimAgent, SimObject, World
 
@@ -149,8 +149,8 @@ def slice_object(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
     _require(obj.aff.sliceable, f"{obj.id} is not sliceable")
     _require(not obj.is_sliced, f"{obj.id} is already sliced")
     obj.is_sliced = True
-    for i in range(SLICE_PIECES.get(obj.type, 2)):
-        piece_type = f"{obj.type}Sliced"
+    piece_type, count = slice_pieces(obj.type)
+    for i in range(count):
         piece = SimObject(
             id=f"{obj.id}|{piece_type}_{i}",
             type=piece_type,

@@ -188,3 +188,8 @@ _TABLE = {t: _build(t) for t in _ALL | MOVEABLE | BREAKABLE | COOKABLE}
 
 # Pieces created by SliceObject, per sliceable type (AI2-THOR numbers its pieces from 0).
 SLICE_PIECES = {"Apple": 3, "Bread": 4, "Lettuce": 3, "Potato": 3, "Tomato": 3}
+
+
+def slice_pieces(object_type: str) -> tuple[str, int]:
+    """The type, and how many, of the pieces that slicing an object of `object_type` gives."""
+    return f"{object_type}Sliced", SLICE_PIECES.get(object_type, 2)
