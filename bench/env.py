@@ -13,13 +13,18 @@ menu and mask), and prints medians over repeated runs:
   out of view searches poses), so the figure the environment itself adds is shown apart;
 - reset time in milliseconds (aim: < 5 ms).
 
+With ``--processes N`` it measures in N processes at once, each with its own environment (how a
+vectorised trainer runs them), and prints the per-process median and the sum.
+
 Usage: python bench/env.py [--repeats N] [--steps N] [--source SOURCE] [--condition C]…
+       [--processes N]
 (needs the env extra: pip install -e '.[env]')
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import os
 import statistics
 import time
@@ -85,6 +90,41 @@ def run(environment, steps: int, seed: int) -> tuple[float, int, int, list[float
     return time.perf_counter() - begun, steps, landed, resets
 
 
+def measure(source: str, condition: str, text: bool, steps: int, repeats: int,
+            barrier=None) -> dict[str, float]:
+    """Medians of `repeats` runs of `steps` steps: env steps/s, skill steps/s, the env's own
+    µs per step, reset ms. With `barrier`, every process warms up, then all measure at once."""
+    clock = SimulatorClock()
+    environment = parallel_env(source, condition=condition, text=text)
+    run(environment, 200, 0)  # warm: every instance's world built once
+    if barrier is not None:
+        barrier.wait()
+    rates, skill_rates, resets, own = [], [], [], []
+    for repeat in range(repeats):
+        clock.seconds = 0.0
+        seconds, count, landed, reset_times = run(environment, steps, repeat)
+        own.append(1e6 * (seconds - clock.seconds) / count)
+        rates.append(count / seconds)
+        skill_rates.append(landed / seconds)
+        resets.extend(reset_times)
+    return {"rate": statistics.median(rates), "skill": statistics.median(skill_rates),
+            "own": statistics.median(own), "reset": 1000 * statistics.median(resets)}
+
+
+def _measure_together(processes: int, *args) -> list[dict[str, float]]:
+    """`measure` in `processes` processes at once (forked, each with its own environment)."""
+    context = multiprocessing.get_context("fork")
+    barrier, results = context.Barrier(processes), context.Queue()
+    workers = [context.Process(target=lambda: results.put(measure(*args, barrier)))
+               for _ in range(processes)]
+    for worker in workers:
+        worker.start()
+    figures = [results.get() for _ in workers]
+    for worker in workers:
+        worker.join()
+    return figures
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
@@ -92,30 +132,32 @@ def main() -> None:
     parser.add_argument("--source", default=str(SHARED))
     parser.add_argument("--condition", action="append",
                         help="conditions to measure (default: C0_blind, D1_blind)")
+    parser.add_argument("--processes", type=int, default=1,
+                        help="measure in this many processes at once (one environment each) "
+                             "and print the per-process median and the sum")
     args = parser.parse_args()
-    print(f"one core (pid {os.getpid()}), {args.steps} steps per run, median of "
-          f"{args.repeats} runs, source {args.source}")
-    clock = SimulatorClock()
+    where = (f"one core (pid {os.getpid()})" if args.processes == 1 else
+             f"{args.processes} processes at once on {os.cpu_count()} cores")
+    print(f"{where}, {args.steps} steps per run, median of {args.repeats} runs, source "
+          f"{args.source}")
     for condition in args.condition or ["C0_blind", "D1_blind"]:
         for text in (True, False):
-            environment = parallel_env(args.source, condition=condition, text=text)
-            run(environment, 200, 0)  # warm: every instance's world built once
-            rates, skill_rates, resets, own = [], [], [], []
-            for repeat in range(args.repeats):
-                clock.seconds = 0.0
-                seconds, steps, landed, reset_times = run(environment, args.steps, repeat)
-                own.append(1e6 * (seconds - clock.seconds) / steps)
-                rates.append(steps / seconds)
-                skill_rates.append(landed / seconds)
-                resets.extend(reset_times)
-            rate = statistics.median(rates)
+            task = (args.source, condition, text, args.steps, args.repeats)
+            if args.processes == 1:
+                figures = measure(*task)
+                total = ""
+            else:
+                each = _measure_together(args.processes, *task)
+                figures = {k: statistics.median(f[k] for f in each) for k in each[0]}
+                total = f"  all {args.processes}: {sum(f['rate'] for f in each):9,.0f} steps/s"
+            rate = figures["rate"]
             low, high = (rate / a for a in reversed(THOR_ACTIONS_PER_S))
             aim = 1000 if text else 5000
             print(f"{condition:9} text={'on ' if text else 'off'}  env steps/s "
                   f"{rate:8,.0f} (aim >= {aim:,})  x{low:,.0f}–{high:,.0f} AI2-THOR  "
-                  f"skill steps/s {statistics.median(skill_rates):8,.0f}  env's own "
-                  f"{statistics.median(own):5.0f} µs/step  reset "
-                  f"{1000 * statistics.median(resets):6.2f} ms (aim < 5)")
+                  f"skill steps/s {figures['skill']:8,.0f}  env's own "
+                  f"{figures['own']:5.0f} µs/step  reset {figures['reset']:6.2f} ms "
+                  f"(aim < 5){total}")
 
 
 if __name__ == "__main__":
