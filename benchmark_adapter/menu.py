@@ -110,6 +110,15 @@ def _agent_phrases(objs: list[tuple[str, Mapping[str, Any]]]) -> list[tuple[str,
     return out
 
 
+def phrases_per_object(obj: Mapping[str, Any]) -> int:
+    """How many phrases one candidate object adds to each agent's block of Γ."""
+    return len(_agent_phrases([("", obj)])) - PHRASES_PER_AGENT
+
+
+#: The phrases of each agent's block of Γ that name no object: the explores, wait and drop.
+PHRASES_PER_AGENT = len(_agent_phrases([]))
+
+
 @dataclass(frozen=True)
 class ActionSpace:
     """The global action list of one step and the aliases it was built with."""

@@ -31,7 +31,7 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("validation",),  # the placement, oracle and metric gates
         ("oracles",),  # reference plans, run through an Episode
         ("episode",),
-        ("scene_setup",),
+        ("scene_setup", "menu_bound"),  # menu_bound: Γ's longest in the embedded world
         ("skills", "goals", "menu", "trajectory", "metrics"),
         ("sim",),  # simulators ground task configs
         ("tasks",),
@@ -51,7 +51,8 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("graphs",),  # planners never import the harness or the runner
         ("tools",),
         ("models", "prompts"),  # never import the graphs
-        ("setting_kinds", "version", "lazy", "conditions"),  # conditions: `C0_image` names
+        ("setting_kinds", "version", "lazy", "conditions", "partial_output"),  # conditions:
+        # `C0_image` names; partial_output: a new folder taken back on failure
     ),
 }
 #: Units that may import only some of the units below them (besides benchmark_adapter).

@@ -17,7 +17,12 @@ def import_inspect_command(log: str, out: str) -> None:
     except ImportError:
         raise click.UsageError("reading Inspect logs needs inspect_ai: pip install "
                                "'cocobench-agents[inspect]'") from None
-    imported = import_log(log, out)
+    from cocobench_agents.runfolder.errors import RunFolderWriteError
+
+    try:
+        imported = import_log(log, out)
+    except RunFolderWriteError as exc:  # a full disk: exit 1, the folder taken back
+        raise click.ClickException(str(exc)) from None
     errors = f", {imported.errors} infrastructure errors" if imported.errors else ""
     click.echo(f"{imported.folder}: {imported.episodes} episodes{errors}; "
                f"view them with: cocobench view {imported.folder}")

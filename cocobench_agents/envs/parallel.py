@@ -11,7 +11,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 from pydantic import ValidationError
 
-from benchmark_adapter.sim.embedded.menu_bound import largest_action_id
+from benchmark_adapter.menu_bound import largest_action_id
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.envs.rewards import reward_weights, step_reward
@@ -221,8 +221,8 @@ class CoCoBenchParallelEnv(ParallelEnv):
 
 def checked_max_menu(configs: list[TaskConfig], max_menu: int | None) -> int:
     """The largest menu id the action spaces hold: `max_menu`, refused when some instance's
-    menu can show a larger id (`largest_action_id`: its move would land before its next
-    observation could not be made); by default the largest any instance can show."""
+    menu can show a larger id (`largest_action_id`; else a move could land and leave an
+    observation the spaces cannot hold); by default the largest any instance can show."""
     largest = {c.task_id: largest_action_id(c) for c in configs}
     if max_menu is None:
         return max(largest.values())

@@ -169,7 +169,7 @@ class SeatedEpisode:
                  ) -> None:
         check_off_menu(off_menu)
         self.off_menu = off_menu
-        self.spec, self.text = spec, text
+        self.text = text
         self.planner = planner_spec(spec.planner)
         check_stepped(self.planner)
         self.loop = self.planner.loop_kind

@@ -5,7 +5,6 @@ written; an export that fails while writing removes what it wrote of itself."""
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +16,7 @@ from cocobench_agents.export.errors import ExportError, ExportWriteError
 from cocobench_agents.export.runs import Run, open_runs
 from cocobench_agents.export.selection import Selection
 from cocobench_agents.export.writer import DATA_FILE, check_out, require_pyarrow, write_rows
+from cocobench_agents.partial_output import removed_on_failure
 from cocobench_agents.runfolder import RunFolderError
 from cocobench_agents.runfolder.infra import is_infra_failure
 
@@ -51,8 +51,7 @@ def export_runs(runs: Sequence[str | Path], out: str | Path, *, where: Sequence[
     warnings = [w for run in opened for w in run.warnings]
     redact = Redactor()
     stats = EpisodeStats()
-    made = not out.exists()
-    try:
+    with removed_on_failure(out):
         data_file = _make_folders(out) / Path(DATA_FILE).name
         rows = write_rows(_rows(chosen, redact, stats), data_file)
         if rows == 0:
@@ -61,9 +60,6 @@ def export_runs(runs: Sequence[str | Path], out: str | Path, *, where: Sequence[
         card = dataset_card(CardFacts(opened, selection.describe(), chosen, stats,
                                       left_out), redact)
         card_file = _write_text(out / CARD_FILE, card)
-    except BaseException:
-        _remove_partial(out, made)
-        raise
     warnings += [f"{path}: missing; its episode is not exported"
                  for path in stats.missing_trajectories]
     return ExportSummary(data_file, card_file, rows, stats.episodes, stats.with_image,
@@ -116,15 +112,3 @@ def _write_text(path: Path, text: str) -> Path:
     except OSError as exc:
         raise ExportWriteError(f"cannot write {path}: {exc.strerror or exc}") from None
     return path
-
-
-def _remove_partial(out: Path, made: bool) -> None:
-    """Remove what this export wrote (`out` was new or empty: `check_out`)."""
-    if made:
-        shutil.rmtree(out, ignore_errors=True)
-        return
-    for child in out.iterdir() if out.is_dir() else ():
-        if child.is_dir() and not child.is_symlink():
-            shutil.rmtree(child, ignore_errors=True)
-        else:
-            child.unlink(missing_ok=True)

@@ -18,6 +18,7 @@ from cocobench_agents.engine.request import RunRequest
 from cocobench_agents.engine.resolve import resolve
 from cocobench_agents.harness.batch import infra_error_record
 from cocobench_agents.harness.episodes import PlannedEpisode
+from cocobench_agents.partial_output import removed_on_failure
 from cocobench_agents.runfolder.folder import RunFolder
 
 from .solver import RESULT, TRAJECTORY, result_line
@@ -39,15 +40,18 @@ class ImportedRun:
 
 def import_log(log_path: str | Path, out: str | Path) -> ImportedRun:
     """Write the run folder `out` (new) of the Inspect log at `log_path`. Every sample is
-    checked against the recorded request before anything is written."""
+    checked against the recorded request before anything is written; a write that fails
+    (`RunFolderWriteError`, `RunFolderError`) takes back what was written."""
     log = _read(Path(log_path))
     resolved = resolve(_request(log, Path(out)), notify=lambda _: None)
     planned = {(sample_id(p), p.key.epoch): p for p in resolved.episodes}
     samples = [(sample, _episode(sample, planned)) for sample in log.samples or []]
     folder = RunFolder(out)
-    folder.create(run_record(resolved))
-    records = [_record(folder, sample, episode) for sample, episode in samples]
-    folder.append_results(records)  # one write and one fsync for them all
+    folder.check_unused()
+    with removed_on_failure(folder.path):  # a full disk leaves nothing half-imported
+        folder.create(run_record(resolved))
+        records = [_record(folder, sample, episode) for sample, episode in samples]
+        folder.append_results(records)  # one write and one fsync for them all
     errors = sum(bool(r.get("infra_error")) for r in records)
     return ImportedRun(Path(out), len(samples), errors)
 

@@ -315,6 +315,35 @@ def test_a_log_with_a_sample_the_request_lacks_writes_no_run_folder(tmp_path: Pa
     assert len(list(RunFolder(out).results())) == 2
 
 
+def test_a_full_disk_leaves_no_half_imported_folder(tmp_path: Path):
+    """A file size limit makes writes fail as a full disk does (EFBIG), once the folder and
+    its run.json are made: the import ends in one line, exit 1, and takes back what it wrote,
+    so the same command completes once there is room."""
+    import resource
+    import signal
+
+    from cocobench_agents.runfolder.folder import RunFolder
+
+    log = _inspect_eval(tmp_path, REPLIES, task=config_paths()[0],
+                        conditions="C0_blind,D1_blind", max_steps=2).location
+
+    def small_files() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # fail the write, not the process
+        resource.setrlimit(resource.RLIMIT_FSIZE, (9000, 9000))
+
+    out = tmp_path / "imported"
+    full = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "import-inspect", log, "--out",
+         str(out)], capture_output=True, text=True, env=subprocess_env(), check=False,
+        preexec_fn=small_files)
+    assert full.returncode == 1, full.stderr
+    assert "File too large" in full.stderr and "Traceback" not in full.stderr, full.stderr
+    assert not out.exists()
+    done = _import(log, out)
+    assert done.returncode == 0, done.stderr
+    assert len(list(RunFolder(out).results())) == 2
+
+
 def test_an_inspect_usage_limit_ends_the_sample_scored_as_it_stands(tmp_path: Path):
     from inspect_ai import eval as inspect_eval
     from inspect_ai.log import read_eval_log

@@ -12,13 +12,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from benchmark_adapter.menu import _agent_phrases, candidate_objects
+from benchmark_adapter.menu import PHRASES_PER_AGENT, candidate_objects, phrases_per_object
 from benchmark_adapter.sim.embedded.affordances import affordances_of, slice_pieces
 from benchmark_adapter.sim.embedded.controller import EmbeddedController
 from benchmark_adapter.tasks.config import TaskConfig
 from benchmark_adapter.vocabulary import AFFORDANCE_FLAGS
-
-_PER_AGENT = len(_agent_phrases([]))  # the explores, wait and drop
 
 
 def largest_action_id(config: TaskConfig) -> int:
@@ -27,7 +25,7 @@ def largest_action_id(config: TaskConfig) -> int:
     lists more actions)."""
     controller = EmbeddedController(config)
     objects = controller.reset()[0]["objects"]
-    per_agent = _PER_AGENT + sum(_most_actions(o) for o in candidate_objects(objects))
+    per_agent = PHRASES_PER_AGENT + sum(_most_actions(o) for o in candidate_objects(objects))
     return controller.agent_count * per_agent - 1
 
 
@@ -46,5 +44,4 @@ def _most_actions(obj: Mapping[str, Any]) -> int:
 
 
 def _actions(obj: Mapping[str, Any]) -> int:
-    """How many phrases one candidate object adds to an agent's block of Γ."""
-    return len(_agent_phrases([("", {"objectId": "", **obj})])) - _PER_AGENT
+    return phrases_per_object({"objectId": "", **obj})
