@@ -11,6 +11,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from cocobench_agents.runfolder.infra import unanswered_calls
+
 #: The `ModelError` kinds no retry and no later episode can get past, and what they mean.
 FATAL_KINDS = {
     "auth": "the provider refused the credentials",
@@ -87,8 +89,7 @@ def fatal_model_error(record: Mapping[str, Any], document: Mapping[str, Any] | N
                       ) -> FatalModelError | None:
     """The first fatal model failure of an episode (its result line and trajectory), if
     any. Only episodes with backend errors are read: costs nothing otherwise."""
-    usage = record.get("usage") or {}
-    if document is None or not (record.get("backend_errors") or usage.get("backend_errors")):
+    if document is None or not unanswered_calls(record):
         return None
     # Every decision, an idle agent's too (one of a heterogeneous team whose model refused
     # the key idles while the others act: its decision is on no step).
