@@ -112,17 +112,29 @@ def measure(source: str, condition: str, text: bool, steps: int, repeats: int,
 
 
 def _measure_together(processes: int, *args) -> list[dict[str, float]]:
-    """`measure` in `processes` processes at once (forked, each with its own environment)."""
+    """`measure` in `processes` processes at once (forked, each with its own environment);
+    one that fails breaks the barrier, so the others stop too, and its error is raised."""
     context = multiprocessing.get_context("fork")
     barrier, results = context.Barrier(processes), context.Queue()
-    workers = [context.Process(target=lambda: results.put(measure(*args, barrier)))
+    workers = [context.Process(target=_measure_into, args=(results, *args, barrier))
                for _ in range(processes)]
     for worker in workers:
         worker.start()
     figures = [results.get() for _ in workers]
     for worker in workers:
         worker.join()
+    failed = [f for f in figures if isinstance(f, str)]
+    if failed:
+        raise RuntimeError(f"{len(failed)} of {processes} processes failed: {failed[0]}")
     return figures
+
+
+def _measure_into(results, *args) -> None:
+    try:
+        results.put(measure(*args))
+    except BaseException as exc:  # noqa: BLE001 - said by the parent, which is waiting
+        args[-1].abort()  # the others stop waiting at the barrier
+        results.put(f"{type(exc).__name__}: {exc}")
 
 
 def main() -> None:

@@ -15,6 +15,7 @@ from typing import Any
 from benchmark_adapter.menu import PHRASES_PER_AGENT, candidate_objects, phrases_per_object
 from benchmark_adapter.sim.embedded.affordances import affordances_of, slice_pieces
 from benchmark_adapter.sim.embedded.controller import EmbeddedController
+from benchmark_adapter.sim.embedded.world import make_object, referenced_ids
 from benchmark_adapter.tasks.config import TaskConfig
 from benchmark_adapter.vocabulary import AFFORDANCE_FLAGS
 
@@ -23,10 +24,14 @@ def largest_action_id(config: TaskConfig) -> int:
     """The largest action id any state of `config`'s episode can show (its Γ's length − 1
     at its longest: each sliceable object counted as itself or as its pieces, whichever
     lists more actions)."""
-    controller = EmbeddedController(config)
-    objects = controller.reset()[0]["objects"]
+    init = config.init_state
+    # The world's objects as its metadata lists them at reset, without grounding the world
+    # (placing agents on the floor was 3/4 of this function's time).
+    objects = [{"objectId": o.id, "objectType": o.type,
+                **{flag: getattr(o.aff, flag) for flag in AFFORDANCE_FLAGS}}
+               for o in map(make_object, referenced_ids(init.objects, init.init_actions))]
     per_agent = PHRASES_PER_AGENT + sum(_most_actions(o) for o in candidate_objects(objects))
-    return controller.agent_count * per_agent - 1
+    return EmbeddedController(config).agent_count * per_agent - 1
 
 
 def _most_actions(obj: Mapping[str, Any]) -> int:

@@ -13,15 +13,16 @@ from pathlib import Path
 @contextmanager
 def removed_on_failure(out: Path) -> Iterator[None]:
     """Remove what the block wrote under `out` when it raises (anything, Ctrl-C too): `out`
-    itself if it did not exist before, else its contents (it was empty: the command checked)."""
-    made = not out.exists()
+    itself if it did not exist before, else the entries it did not hold before (what was
+    there is left as it was)."""
+    before = set(out.iterdir()) if out.is_dir() else None
     try:
         yield
     except BaseException:
-        if made:
+        if before is None:
             shutil.rmtree(out, ignore_errors=True)
         else:
-            for child in out.iterdir() if out.is_dir() else ():
+            for child in set(out.iterdir()) - before:
                 if child.is_dir() and not child.is_symlink():
                     shutil.rmtree(child, ignore_errors=True)
                 else:

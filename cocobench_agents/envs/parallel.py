@@ -9,7 +9,6 @@ from typing import Any, ClassVar
 import numpy as np
 from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
-from pydantic import ValidationError
 
 from benchmark_adapter.menu_bound import largest_action_id
 from benchmark_adapter.tasks import TaskConfig
@@ -21,6 +20,7 @@ from cocobench_agents.envs.seated import (
     SeatedEpisode,
     check_off_menu,
     close_loop,
+    partner_settings,
     seat_name,
 )
 from cocobench_agents.envs.source import instances, one_condition
@@ -233,21 +233,6 @@ def checked_max_menu(configs: list[TaskConfig], max_menu: int | None) -> int:
                        f"instances can show larger menu ids (up to {over[task]}, in {task}); "
                        f"leave max_menu unset or make it >= {over[task]}")
     return max_menu
-
-
-def partner_settings(given: ModelSettings | Mapping[str, Any] | None) -> ModelSettings:
-    """How the partners' models are called: `given` (settings, or a mapping of their
-    fields), else what the ``COCOBENCH_RUN_*`` variables say, as for `cocobench run`."""
-    try:
-        if given is None:
-            return ModelSettings.from_run_variables()
-        return given if isinstance(given, ModelSettings) else ModelSettings.model_validate(
-            dict(given))
-    except ValidationError as exc:
-        raise EnvError("; ".join(f"model_settings.{'.'.join(map(str, e['loc']))}: {e['msg']}"
-                                 for e in exc.errors())) from None
-    except ValueError as exc:
-        raise EnvError(str(exc)) from None
 
 
 def _failed(landed: list[dict[str, Any]], seat: str) -> int:

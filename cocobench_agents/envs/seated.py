@@ -19,6 +19,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from pydantic import ValidationError
+
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.metrics import EpisodeResult
 from cocobench_agents.conditions import condition_name
@@ -58,6 +60,7 @@ from cocobench_agents.graphs.registry import (
 from cocobench_agents.graphs.state import TEAM, team_history
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.protocol import MenuOption, ModelReply
+from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.prompts import load_prompt_suite
 from cocobench_agents.tools import EpisodeTools
 
@@ -144,6 +147,21 @@ def with_partner_models(spec: EpisodeSpec, partners: Mapping[str, str]) -> Episo
     return dataclasses.replace(spec, models=models)
 
 
+def partner_settings(given: ModelSettings | Mapping[str, Any] | None) -> ModelSettings:
+    """How the partners' models are called: `given` (settings, or a mapping of their
+    fields), else what the ``COCOBENCH_RUN_*`` variables say, as for `cocobench run`."""
+    try:
+        if given is None:
+            return ModelSettings.from_run_variables()
+        return given if isinstance(given, ModelSettings) else ModelSettings.model_validate(
+            dict(given))
+    except ValidationError as exc:
+        raise EnvError("; ".join(f"model_settings.{'.'.join(map(str, e['loc']))}: {e['msg']}"
+                                 for e in exc.errors())) from None
+    except ValueError as exc:
+        raise EnvError(str(exc)) from None
+
+
 def seat_name(seat: Seat) -> str:
     """A seat's name as an environment agent: the robot's id, else its role."""
     return seat.agent if seat.role == AGENT_SEAT else seat.role
@@ -154,7 +172,8 @@ class SeatedEpisode:
     through `step`. `partners` maps seat names to the model specs that play those seats (any
     the harness runs: ``greedy``, ``random``, ``scripted:FILE``, ``replay:RUN``, a LiteLLM
     model; or ``oracle``: the reference plan, `oracle_partner.py`), their clients made by
-    `pool` afresh for each episode; `text=False` skips
+    `pool` afresh for each episode (default: a pool with the ``COCOBENCH_RUN_*`` variables'
+    settings, `partner_settings`); `text=False` skips
     rendering prompts (observations then carry no prompt text, and the trajectory's decisions
     name the empty prompt). An action off the seat's menu is an `EnvError`; with
     ``off_menu="score"`` it is scored as a model's reply naming an id not on its menu is (an
@@ -182,7 +201,7 @@ class SeatedEpisode:
             raise EnvError(f"no seat {unknown[0]!r} in {spec.planner}: seats are "
                            f"{', '.join(self.seats)}")
         self.learners = [s for s in self.seats if s not in self.partners]
-        self.pool = pool if pool is not None else ModelPool()
+        self.pool = pool if pool is not None else ModelPool(partner_settings(None))
         self.model = spec.model_for(None)  # the name the learners' decisions record
         self.spec = with_partner_models(spec, self.partners)
         self.condition = condition_name(self.planner.code, spec.obs_mode)
