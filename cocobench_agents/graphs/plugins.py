@@ -126,8 +126,11 @@ def user_planners(names: Iterable[str]) -> list[LoadedPlanner]:
 
 
 def planners_record(names: Iterable[str]) -> dict[str, dict[str, Any]]:
-    """`run.json`'s record of the user planners among `names`: code, origin and file hash."""
-    return {p.name: {"code": p.spec.code, **p.origin.record()} for p in user_planners(names)}
+    """`run.json`'s record of the user planners among `names`: code, origin and file hash,
+    and what a reader of the run folder needs of the planner (whether it broadcasts, which
+    prompt its calls render), so that no reader ever loads the planner's code."""
+    return {p.name: {"code": p.spec.code, **p.origin.record(), "broadcast": p.spec.broadcast,
+                     "prompt": p.spec.prompt_kind} for p in user_planners(names)}
 
 
 def check_unchanged(names: Iterable[str], recorded: dict[str, Any]) -> None:

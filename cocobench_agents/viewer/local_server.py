@@ -4,8 +4,10 @@ engine's own `asyncio.run` while the play page is served).
 
 Every request must name the bound address in its `Host` header: a page of another site that
 a DNS-rebinding attack points at 127.0.0.1 sends its own host name and is refused. Every
-answer carries a `Content-Security-Policy` and `X-Content-Type-Options: nosniff`
-(`send_security_headers`), and every number a request carries is read by `request_number`.
+answer, those aiohttp makes itself included (`GuardedRunner`), carries a
+`Content-Security-Policy`, `X-Content-Type-Options: nosniff` and
+`Cross-Origin-Resource-Policy: same-origin` (`send_security_headers`), and every number a
+request carries is read by `request_number`.
 """
 
 from __future__ import annotations
@@ -18,9 +20,12 @@ import re
 import threading
 from collections.abc import Awaitable, Callable
 from concurrent.futures import Future
+from http import HTTPStatus
 
 from aiohttp import hdrs, web
 from aiohttp.http_exceptions import HttpProcessingError
+from aiohttp.web_protocol import RequestHandler
+from aiohttp.web_request import BaseRequest
 
 from cocobench_agents.viewer.errors import ViewerError
 
@@ -59,16 +64,74 @@ def request_number(text: str, name: str) -> int:
     return int(text)
 
 
+#: The headers of every answer but its policy: a file is only ever what its type says, and
+#: another site's page may not embed one (an `<img>` probing which frames exist).
+SECURITY_HEADERS = {"X-Content-Type-Options": "nosniff",
+                    "Cross-Origin-Resource-Policy": "same-origin"}
+#: The headers (`SECURITY_HEADERS` and the policy) an application's answers carry, kept for
+#: the answers aiohttp makes itself (`GuardedRequestHandler`).
+APP_HEADERS = web.AppKey("security_headers", dict[str, str])
+
+
 def send_security_headers(app: web.Application, policy: str) -> None:
-    """Every answer of `app` says `X-Content-Type-Options: nosniff` (a file is only ever what
-    its type says) and carries the `Content-Security-Policy` `policy` unless its handler set
-    one of its own (the play page's, which adds its inline script and style by their hash)."""
+    """Every answer of `app` carries `SECURITY_HEADERS` and the `Content-Security-Policy`
+    `policy` unless its handler set one of its own (the play page's, which adds its inline
+    script and style by their hash). The 400 that aiohttp answers a request it cannot parse
+    never reaches the application: `LocalServer` gives it the same headers."""
+    app[APP_HEADERS] = {**SECURITY_HEADERS, "Content-Security-Policy": policy}
 
     async def add(request: web.Request, response: web.StreamResponse) -> None:
-        response.headers["X-Content-Type-Options"] = "nosniff"
+        response.headers.update(SECURITY_HEADERS)
         response.headers.setdefault("Content-Security-Policy", policy)
 
     app.on_response_prepare.append(add)
+
+
+class GuardedRequestHandler(RequestHandler):
+    """aiohttp's connection handler, but the answer it makes itself, without the application
+    (a request it cannot parse: a raw non-ASCII byte in the path, an over-long line, an unknown
+    method; a handler's unexpected exception), says only its status, never the request line
+    the parser quotes, and carries the application's security headers."""
+
+    headers: dict[str, str]  # set as it is made
+
+    def handle_error(self, request: BaseRequest, status: int = 500,
+                     exc: BaseException | None = None,
+                     message: str | None = None) -> web.StreamResponse:
+        super().handle_error(request, status, exc, message)  # it logs; its answer quotes
+        try:
+            text = f"{status} {HTTPStatus(status).phrase}"
+        except ValueError:  # a status the standard does not name
+            text = str(status)
+        answer = web.Response(status=status, text=text, headers=self.headers)
+        answer.force_close()
+        return answer
+
+
+class GuardedServer(web.Server):
+    """An aiohttp `Server` whose connections are `GuardedRequestHandler`s with `headers`."""
+
+    headers: dict[str, str]  # set as it is made
+
+    def __call__(self) -> RequestHandler:
+        handler = GuardedRequestHandler(self, loop=self._loop, **self._kwargs)
+        handler.headers = self.headers
+        return handler
+
+
+class GuardedRunner(web.AppRunner):
+    """An `AppRunner` serving its application through a `GuardedServer`.
+
+    aiohttp offers no public hook for the answers its parser makes: the server that
+    `AppRunner` builds (`Application._make_handler`) is given the guarded connection handler
+    by its class, the one thing that changes (tests/viewer/test_served.py checks those answers
+    on every aiohttp this project installs)."""
+
+    async def _make_server(self) -> web.Server:
+        server = await super()._make_server()
+        server.__class__ = GuardedServer
+        server.headers = self.app.get(APP_HEADERS, SECURITY_HEADERS)
+        return server
 
 
 @web.middleware
@@ -132,7 +195,7 @@ class LocalServer:
             loop.close()
 
     async def _main(self, loop: asyncio.AbstractEventLoop, bound: Future[int]) -> None:
-        runner = web.AppRunner(self.app, access_log=None, shutdown_timeout=SHUTDOWN_TIMEOUT_S,
+        runner = GuardedRunner(self.app, access_log=None, shutdown_timeout=SHUTDOWN_TIMEOUT_S,
                                logger=LOG)
         await runner.setup()
         try:

@@ -6,6 +6,7 @@ from typing import Any
 
 from cocobench_agents.conditions import split_condition
 from cocobench_agents.runfolder.infra import unanswered_calls
+from cocobench_agents.viewer.paths import path_part
 from cocobench_agents.viewer.source import Episode
 
 #: (key, header, filterable): the runs page's columns, in order.
@@ -61,11 +62,13 @@ def episode_row(episode: Episode, run_name: str) -> dict[str, Any]:
 
 def seat_models(record: dict[str, Any]) -> dict[str, str]:
     """Each seat's model, for a team whose seats differ (a human–AI team, `--agent-model`):
-    the result line's `models`; empty for a team of one model."""
+    the result line's `models`; empty for a team of one model. A seat whose model is not
+    text (a line no run writes) is left out."""
     models = record.get("models")
-    if isinstance(models, dict) and len(set(models.values())) > 1:
-        return {str(agent): str(model) for agent, model in models.items()}
-    return {}
+    if not isinstance(models, dict):
+        return {}
+    seats = {str(agent): model for agent, model in models.items() if isinstance(model, str)}
+    return seats if len(set(seats.values())) > 1 else {}
 
 
 def team_label(record: dict[str, Any]) -> str:
@@ -91,7 +94,7 @@ def error_label(record: dict[str, Any]) -> str:
 
 def compare_path(task_id: str) -> str:
     """The compare page of one instance (every episode of it, side by side)."""
-    return f"compare/{task_id}.html"
+    return f"compare/{path_part(task_id)}.html"
 
 
 def _fixed(value: Any) -> str:

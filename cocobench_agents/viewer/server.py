@@ -92,7 +92,7 @@ def _render(pages: Pages, path: str) -> str | None:
     if path == "index.html":
         return pages.runs()
     if path.startswith("compare/") and path.endswith(".html"):
-        return pages.compare(path.removeprefix("compare/").removesuffix(".html"))
+        return pages.compare_page(path)
     episode = pages.catalog.find(path)
     return pages.episode(episode) if episode else None
 

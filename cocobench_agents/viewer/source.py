@@ -14,11 +14,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.runfolder.episode_key import EpisodeKey, result_key
+from cocobench_agents.runfolder.episode_key import EpisodeKey, model_slug, result_key
 from cocobench_agents.runfolder.errors import RunFolderError
 from cocobench_agents.runfolder.folder import PROMPTS_FILE, RESULTS, RUN_FILE, RunFolder
 from cocobench_agents.runfolder.result_line import line_error
 from cocobench_agents.viewer.errors import ViewerError
+from cocobench_agents.viewer.paths import path_part
 
 SHOWN_PROBLEMS = 5  # junk lines named one by one on the page; the rest are counted
 
@@ -34,8 +35,14 @@ class Episode:
 
     @property
     def path(self) -> str:
-        """Its page's path below the viewer's root (the same live and exported)."""
-        return f"episode/{self.run}/{self.key.folder().removeprefix('episodes/')}.html"
+        """Its page's path below the viewer's root (the same live and exported): the parts
+        of its trajectory's folder, each a plain name (`paths.path_part`), so that a key such
+        as `../../x` names a page inside the root like any other."""
+        key = self.key
+        leaf = key.task_id if key.epoch == 0 else f"{key.task_id}@e{key.epoch}"
+        parts = [model_slug(key.model), key.condition, *([model_slug(key.arm)] if key.arm
+                                                        else []), leaf]
+        return f"episode/{self.run}/{'/'.join(map(path_part, parts))}.html"
 
 
 @dataclass
@@ -108,28 +115,44 @@ class RunSource:
         except (OSError, ValueError, RuntimeError, RunFolderError):  # RuntimeError: a link loop
             return None
 
+    def relative(self, relative: str) -> str | None:
+        """The path inside the run folder (POSIX, links resolved) of the file at `relative`;
+        None when `file` finds none: the one spelling a page links to and `--export` copies
+        to, whatever `..` or `./` the trajectory wrote."""
+        found = self.file(relative)
+        if found is None:
+            return None
+        return found.relative_to(self.path.resolve()).as_posix()
+
+    def trajectory_name(self, episode: Episode) -> str:
+        """Where the episode's trajectory is, relative to the run folder (for messages)."""
+        return str(episode.record.get("trajectory")
+                   or f"{episode.key.folder()}/trajectory.json")
+
     def trajectory(self, episode: Episode) -> dict[str, Any] | None:
         """The episode's trajectory document (None when it is missing or unreadable)."""
-        relative = episode.record.get("trajectory") or f"{episode.key.folder()}/trajectory.json"
-        path = self.file(str(relative))
+        path = self.file(self.trajectory_name(episode))
         if path is None:
             return None
         try:
             with open(path, encoding="utf-8") as f:
                 document = json.load(f)
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):  # RecursionError: nested too deep
             return None
         return document if isinstance(document, dict) else None
 
     def prompts(self, episode: Episode) -> dict[str, str]:
-        """The episode's prompts by hash (empty when the run did not keep them)."""
+        """The episode's prompts by hash (empty when the run did not keep them, or kept
+        them in a form that is not text by hash)."""
         if self.file(f"{episode.key.folder()}/{PROMPTS_FILE}") is None:
             return {}  # absent, or a link out of the run folder
         try:
             prompts = self.folder.prompts(episode.key)
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):  # RecursionError: nested too deep
             return {}
-        return prompts if isinstance(prompts, dict) else {}
+        if not isinstance(prompts, dict):
+            return {}
+        return {k: v for k, v in prompts.items() if isinstance(v, str)}
 
 
 class Catalog:

@@ -57,7 +57,8 @@ def test_a_function_in_a_file_runs_with_the_documented_defaults(strategy, tmp_pa
     recorded = json.loads((out / "run.json").read_text())["planners"][canonical]
     assert recorded == {"code": "one-node", "kind": "file", "source": canonical,
                         "file": str(strategy.resolve()),
-                        "sha256": hashlib.sha256(strategy.read_bytes()).hexdigest()}
+                        "sha256": hashlib.sha256(strategy.read_bytes()).hexdigest(),
+                        "broadcast": False, "prompt": "team"}
 
 
 def test_a_planner_spec_keeps_its_code_and_policy_and_works_in_conditions(strategy, tmp_path):

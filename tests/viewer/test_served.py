@@ -1,7 +1,8 @@
 """What `cocobench view` serves over real HTTP on 127.0.0.1, and nothing more: the package's
 static files, the files inside the runs given (links leading out are not followed), its pages;
-every malformed number, path or query is answered 4xx, never 5xx, and every answer carries the
-viewer's Content-Security-Policy and `nosniff`."""
+every malformed number, path or query is answered 4xx, never 5xx, and every answer (aiohttp's
+own 400s included) carries the viewer's Content-Security-Policy, `nosniff` and
+`Cross-Origin-Resource-Policy`."""
 
 from __future__ import annotations
 
@@ -141,7 +142,7 @@ def test_a_trajectory_or_frame_linked_from_outside_is_not_read(run_copy: Path,
     assert 'id="step-1"' not in pages.episode(episode)  # shown as an episode without one
 
 
-def test_every_answer_carries_the_policy_and_nosniff(hostile: Hostile) -> None:
+def test_every_answer_carries_the_policy_nosniff_and_corp(hostile: Hostile) -> None:
     answers = [send(hostile.port, target) for target in (
         "/", "/static/viewer.css", "/api/rows", "/files/0/run.json", "/nope",
         "/api/rows?since=x", "/files/0/frame.png")]
@@ -150,7 +151,27 @@ def test_every_answer_carries_the_policy_and_nosniff(hostile: Hostile) -> None:
     for answer in answers:
         assert answer.header("Content-Security-Policy") == POLICY
         assert answer.header("X-Content-Type-Options") == "nosniff"
+        assert answer.header("Cross-Origin-Resource-Policy") == "same-origin"
     assert "script-src 'self'" in POLICY and "'unsafe-inline'" not in POLICY
+
+
+@pytest.mark.parametrize(("target", "method"), [
+    (b"/api/rows?since=\xc2\xb2", "GET"), (b"/static/\xc0\xaf", "GET"),
+    (b"/files/\xff/x", "GET"), (b"/" + b"a" * 9000, "GET"), (b"/index.html", "FOO"),
+    (b"/<script>x</script>", "G\x01T")], ids=["raw ²", "overlong UTF-8", "raw 0xff",
+                                              "over-long URL", "unknown method",
+                                              "control byte in method"])
+def test_the_400s_aiohttp_makes_itself_carry_the_headers_and_quote_nothing(
+        hostile: Hostile, target: bytes, method: str) -> None:
+    """A request aiohttp's parser refuses never reaches the application, its middleware or
+    its signals: its 400 is given the same headers, and says nothing of the request."""
+    answer = send(hostile.port, target, method=method)
+    assert answer.status == 400
+    assert answer.header("Content-Security-Policy") == POLICY
+    assert answer.header("X-Content-Type-Options") == "nosniff"
+    assert answer.header("Cross-Origin-Resource-Policy") == "same-origin"
+    body = answer.raw.partition(b"\r\n\r\n")[2]
+    assert body == b"400 Bad Request"
 
 
 @pytest.mark.slow
