@@ -16,7 +16,7 @@ import datetime as dt
 import time
 from typing import Any
 
-from cocobench_agents.models.human import Answer, Decision, SeatDesk
+from cocobench_agents.models.human import Answer, Decision, RecordingDesk, SeatDesk
 from cocobench_agents.runfolder.folder import RunFolder
 from cocobench_agents.tools import prompt_hash
 
@@ -49,12 +49,22 @@ class LoggedDesk:
             return answer_of(logged)
         async with self._turn:
             shown = time.perf_counter()
-            answer = await self.desk.ask(decision)
+
+            def record(decision: Decision, answer: Answer) -> Answer:
+                return self._record(decision, answer, shown)
+
+            if isinstance(self.desk, RecordingDesk):  # logged before the person is told
+                return await self.desk.ask_recorded(decision, record)
+            return record(decision, await self.desk.ask(decision))
+
+    def _record(self, decision: Decision, answer: Answer, shown: float) -> Answer:
+        """Log `answer` (a whole, fsync'd line) and return it as logged. A `RecordingDesk`
+        calls it on its own thread while the run's loop awaits the answer."""
         if not answer.think_s:  # a desk that does not time the person: from shown to answer
             answer = dataclasses.replace(answer, think_s=time.perf_counter() - shown)
         line = log_line(decision, answer)
         self.folder.append_line(answers_file(decision.episode), line)
-        log[decision.id] = line
+        self._log(decision.episode)[decision.id] = line
         return answer
 
     def _log(self, episode: str) -> dict[str, dict[str, Any]]:

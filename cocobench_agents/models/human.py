@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 from .grammar import wants_message
 from .messages import image_data_url
@@ -66,12 +67,17 @@ class Answer:
     think_s: float = 0.0  # from the decision shown to the answer
 
     def reply_text(self, wants_message: bool) -> str:
-        """The reply a model would have written (`prompts.parse_reply` reads it)."""
+        """The reply a model would have written, built so that the models' own parser
+        (`prompts.parse_reply`, `parse_message`: the first ``ACTION:`` and the first ``MSG:``
+        anywhere) reads back exactly the click and the message, whatever the person typed:
+        the ACTION line comes first, then the MSG line, then the reason, whose own ``MSG:``
+        is defused (with no message, the parser would broadcast it)."""
         action = "DONE" if self.action_id is None else self.action_id
-        lines = [f"REASON: {_one_line(self.reason) or 'chosen by a person'}",
-                 f"ACTION: {action}"]
+        lines = [f"ACTION: {action}"]
         if wants_message and self.message.strip():
             lines.append(f"MSG: {_one_line(self.message)}")
+        reason = _one_line(self.reason).replace(MESSAGE_TAG, "MSG :")
+        lines.append(f"REASON: {reason or 'chosen by a person'}")
         return "\n".join(lines)
 
 
@@ -82,6 +88,23 @@ class SeatDesk(Protocol):
 
     async def ask(self, decision: Decision) -> Answer:
         """The person's answer to `decision` (waits for it)."""
+        ...
+
+
+#: Records a person's answer to a decision for good (the run's answer log: a whole, fsync'd
+#: line) and returns the answer as recorded; raises when it cannot.
+Recorder = Callable[[Decision, Answer], Answer]
+
+
+@runtime_checkable
+class RecordingDesk(SeatDesk, Protocol):
+    """A desk that tells the person their answer was taken (the play page's 200): it must
+    record the answer first, so that nothing a person was told was taken is lost."""
+
+    async def ask_recorded(self, decision: Decision, record: Recorder) -> Answer:
+        """`ask`, with `record` called on the answer before the person is told it was taken;
+        the answer returned is `record`'s. A failing `record`: the answer is not taken, and
+        its error is raised here."""
         ...
 
 
@@ -127,6 +150,10 @@ class HumanClient:
             menu=tuple({"id": o.action_id, "skill": o.skill, "call": o.call}
                        for o in request.menu),
             wants_message=wants_message(request.prompt), step_index=request.step_index)
+
+
+#: What `prompts.parse_message` takes for the start of a message.
+MESSAGE_TAG = "MSG:"
 
 
 def _one_line(text: str) -> str:

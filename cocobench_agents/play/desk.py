@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from cocobench_agents.engine import events
-from cocobench_agents.models.human import Answer, Decision
+from cocobench_agents.models.human import Answer, Decision, Recorder
 from cocobench_agents.play.prompt_parts import (
     agent_label,
     menu_labels,
@@ -44,6 +44,11 @@ class NotOnMenu(AnswerRefused):
     """The choice is not on the decision's menu, or carries a message the seat cannot send."""
 
 
+class NotRecorded(RuntimeError):
+    """The answer could not be recorded (the run's answer log, on a full disk say): it is
+    not taken, and the decision waits for an answer again."""
+
+
 class AskedTwice(RuntimeError):
     """A second decision asked while one waits: the runner breaks `SeatDesk`'s contract."""
 
@@ -54,6 +59,8 @@ class _Asked:
     future: asyncio.Future[Answer]
     loop: asyncio.AbstractEventLoop  # the engine's loop, where `future` is awaited
     shown_at: float
+    record: Recorder  # called on the answer, on the server's thread, before the 200
+    recording: bool = False  # an answer is being recorded: another is refused meanwhile
 
 
 class PlayDesk:
@@ -76,10 +83,15 @@ class PlayDesk:
     # -- the engine's side ------------------------------------------------------------------
 
     async def ask(self, decision: Decision) -> Answer:
-        """Show `decision` and wait for its answer; a cancelled wait (the episode timed out,
-        the run was interrupted) withdraws it."""
+        """Show `decision` and wait for its answer, recorded nowhere (`ask_recorded`)."""
+        return await self.ask_recorded(decision, _kept_nowhere)
+
+    async def ask_recorded(self, decision: Decision, record: Recorder) -> Answer:
+        """Show `decision` and wait for its answer, which `answer` records with `record`
+        before it tells the page the answer was taken; a cancelled wait (the episode timed
+        out, the run was interrupted) withdraws it."""
         loop = asyncio.get_running_loop()
-        asked = _Asked(decision, loop.create_future(), loop, time.monotonic())
+        asked = _Asked(decision, loop.create_future(), loop, time.monotonic(), record)
         with self._lock:
             if self._asked is not None:
                 raise AskedTwice(f"{decision.id} asked while {self._asked.decision.id} waits")
@@ -125,10 +137,12 @@ class PlayDesk:
     def answer(self, decision_id: str, action_id: int | None, *, reason: str = "",
                message: str = "") -> None:
         """Take the person's answer to the decision being asked now (`action_id` None:
-        DONE), or refuse it (`NotPending`, `NotOnMenu`) without changing anything."""
+        DONE), or refuse it (`NotPending`, `NotOnMenu`) without changing anything. Returns
+        once the answer is recorded (the asker's `Recorder`; on this thread, so that the
+        page hears "taken" only then); `NotRecorded` if it could not be."""
         with self._lock:
             asked = self._asked
-            if asked is None or asked.decision.id != decision_id:
+            if asked is None or asked.decision.id != decision_id or asked.recording:
                 now = asked.decision.id if asked else None
                 raise NotPending(f"decision {decision_id!r} is not waiting for an answer "
                                  "(answered already, withdrawn, or not asked); asked now: "
@@ -137,9 +151,20 @@ class PlayDesk:
                 raise NotOnMenu(f"action {action_id} is not on the menu of {decision_id!r}")
             if message.strip() and not asked.decision.wants_message:
                 raise NotOnMenu(f"the seat of {decision_id!r} sends no messages")
-            self._asked = None
+            asked.recording = True
             answer = Answer(action_id, reason=reason, message=message,
                             think_s=time.monotonic() - asked.shown_at)
+        try:
+            answer = asked.record(asked.decision, answer)
+        except Exception as exc:
+            with self._lock:
+                asked.recording = False  # still asked: the person may answer again
+            raise NotRecorded(f"the answer could not be recorded ({exc}); nothing was "
+                              "taken, answer again once the run folder can be written") \
+                from exc
+        with self._lock:
+            if self._asked is asked:  # not withdrawn meanwhile
+                self._asked = None
             asked.loop.call_soon_threadsafe(_settle, asked.future, answer)
         self._changed()
 
@@ -192,6 +217,11 @@ class PlayDesk:
 def _settle(future: asyncio.Future[Answer], answer: Answer) -> None:
     if not future.done():  # a wait cancelled meanwhile keeps its cancellation
         future.set_result(answer)
+
+
+def _kept_nowhere(decision: Decision, answer: Answer) -> Answer:
+    """The `Recorder` of a desk asked without one (a test, a front end of one's own)."""
+    return answer
 
 
 def _shown(decision: Decision, landed: list[tuple[str, int, str]]) -> dict[str, Any]:

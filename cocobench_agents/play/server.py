@@ -14,9 +14,10 @@ Routes:
 * ``GET /play/api/state[?after=VERSION]`` — what the page shows, as JSON; with `after`, the
   answer waits (long polling, up to `LONG_POLL_S`) until the desk has changed since VERSION.
 * ``POST /play/api/answer`` — ``{"decision": ID, "action_id": N, "reason": "…",
-  "message": "…"}`` (`action_id` null: DONE, every goal is satisfied): 200 taken; 400 a
-  malformed body; 409 not the decision being asked now (answered already, withdrawn); 422
-  an id not on the menu, or a message from a seat that sends none. A refused answer
+  "message": "…"}`` (`action_id` null: DONE, every goal is satisfied): 200 taken (and
+  already recorded in the run's answer log); 400 a malformed body; 409 not the decision
+  being asked now (answered already, withdrawn); 422 an id not on the menu, or a message
+  from a seat that sends none; 503 the answer could not be recorded. A refused answer
   changes nothing.
 """
 
@@ -35,7 +36,7 @@ import pydantic
 from aiohttp import web
 from markupsafe import Markup
 
-from cocobench_agents.play.desk import NotOnMenu, NotPending, PlayDesk
+from cocobench_agents.play.desk import NotOnMenu, NotPending, NotRecorded, PlayDesk
 from cocobench_agents.viewer.local_server import (
     Handler,
     LocalServer,
@@ -155,7 +156,9 @@ async def token_guard(request: web.Request, handler: Handler) -> web.StreamRespo
     """The page takes the token from its query, every other route from the header."""
     given = (request.query.get("token") if request.path == PAGE_PATH
              else request.headers.get(TOKEN_HEADER)) or ""
-    if not secrets.compare_digest(given.encode(), request.app[TOKEN].encode()):
+    # A header of raw bytes arrives as surrogate escapes, which no encoding takes: a token
+    # is ASCII, so anything else is simply a wrong one (compare_digest takes ASCII text).
+    if not given.isascii() or not secrets.compare_digest(given, request.app[TOKEN]):
         return _error(403, "this run's token is missing or wrong: open the play URL that "
                            "cocobench run printed")
     return await handler(request)
@@ -181,13 +184,15 @@ async def answer(request: web.Request) -> web.Response:
         return _error(413, f"the body is larger than {MAX_BODY} bytes")
     except pydantic.ValidationError as exc:
         return _error(400, f"malformed answer: {_first_problem(exc)}")
-    try:
-        request.app[DESK].answer(body.decision, body.action_id, reason=body.reason,
-                                 message=body.message)
+    try:  # recording the answer (an fsync) must not hold up the other requests
+        await asyncio.to_thread(request.app[DESK].answer, body.decision, body.action_id,
+                                reason=body.reason, message=body.message)
     except NotPending as exc:
         return _error(409, str(exc))
     except NotOnMenu as exc:
         return _error(422, str(exc))
+    except NotRecorded as exc:  # the run's folder failed: it hears of it too
+        return _error(503, str(exc))
     return web.json_response({"accepted": body.decision}, headers=NO_STORE)
 
 

@@ -8,12 +8,14 @@ import asyncio
 import dataclasses
 import http.client
 import json
+import logging
 import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from typing import Any
+from urllib.parse import quote
 
 import pytest
 
@@ -350,3 +352,22 @@ def test_a_centralized_menu_line_names_its_agent_once() -> None:
     assert agent_label("agent_2: put object in hand on the CoffeeTable") == (
         "agent_2", "put object in hand on the CoffeeTable")
     assert agent_label("find a Fridge") == (None, "find a Fridge")
+
+
+@pytest.mark.parametrize("given", [b"\xff\xfe", "é".encode(), b"\x80" * 43])
+def test_a_token_of_raw_bytes_is_refused_cleanly(server: PlayServer, given: bytes,
+                                                 caplog: pytest.LogCaptureFixture) -> None:
+    # A header of bytes that are not ASCII: a 403, never a 500 with a traceback on the
+    # player's terminal (aiohttp logs a handler's exception there).
+    caplog.set_level(logging.WARNING)
+    for path in ("/play/api/state", f"/play?token={given.decode('latin-1')}"):
+        connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=30)
+        connection.putrequest("GET", quote(path, safe="/?="), skip_host=True)
+        connection.putheader("Host", f"127.0.0.1:{server.port}")
+        connection.putheader(TOKEN_HEADER, given)
+        connection.endheaders()
+        response = connection.getresponse()
+        body = json.loads(response.read())
+        connection.close()
+        assert response.status == 403 and "token" in body["error"], path
+    assert not [r for r in caplog.records if r.levelno >= logging.ERROR or r.exc_info]
