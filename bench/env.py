@@ -43,12 +43,11 @@ def random_actions(observations: dict, rng: np.random.Generator) -> dict:
     """A random legal move per seat: a menu id on its mask (DONE when only DONE is)."""
     actions = {}
     for seat, observation in observations.items():
-        mask = observation["action_mask"]
-        ids = np.flatnonzero(mask if isinstance(mask, np.ndarray) else mask["action"]) - 1
+        ids = np.flatnonzero(observation["action_mask"]) - 1
         menu = ids[1:] if len(ids) > 1 else ids
         # An index, not rng.choice(menu): choice took 10 µs a call, a tenth of a step.
         choice = int(menu[int(rng.integers(len(menu)))])
-        actions[seat] = choice if isinstance(mask, np.ndarray) else \
+        actions[seat] = choice if "sends_message" not in observation else \
             {"action": choice, "message": ""}
     return actions
 

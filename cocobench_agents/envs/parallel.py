@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import asyncio
+import warnings
+import weakref
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -16,10 +18,12 @@ from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.envs.rewards import reward_weights, step_reward
 from cocobench_agents.envs.seated import (
     EnvError,
+    EnvWarning,
     SeatAction,
     SeatedEpisode,
     check_off_menu,
     close_loop,
+    close_quietly,
     partner_settings,
     seat_name,
 )
@@ -34,6 +38,10 @@ from cocobench_agents.prompts import DEFAULT_SUITE
 
 #: The model name the learning seats' decisions and the result line record by default.
 DEFAULT_MODEL_NAME = "env"
+#: What `render()` returns: the seats' text view, or their camera frames as one RGB array.
+RENDER_MODES = ("ansi", "rgb_array")
+#: The options `reset(options=…)` reads.
+RESET_OPTIONS = ("task_id",)
 
 
 class CoCoBenchParallelEnv(ParallelEnv):
@@ -42,16 +50,21 @@ class CoCoBenchParallelEnv(ParallelEnv):
     leader–worker, whose rounds take two steps: the leader's, then the robots'). See
     docs/environments.md."""
 
-    metadata: ClassVar[dict[str, Any]] = {"name": "cocobench_v0", "render_modes": [],
+    metadata: ClassVar[dict[str, Any]] = {"name": "cocobench_v0",
+                                          "render_modes": list(RENDER_MODES), "render_fps": 4,
                                           "is_parallelizable": True}
 
     def __init__(self, source: str, *, condition: str, task_id: str | None = None,
                  prompt_suite: str = DEFAULT_SUITE, reward: Mapping[str, float] | None = None,
                  seed: int | None = None, text: bool = True, max_steps: int | None = None,
                  max_menu: int | None = None, model: str = DEFAULT_MODEL_NAME,
-                 partners: Mapping[str, str] | None = None, off_menu: str = "error",
-                 model_settings: ModelSettings | Mapping[str, Any] | None = None) -> None:
+                 partners: Mapping[str, str] | None = None, off_menu: str = "score",
+                 model_settings: ModelSettings | Mapping[str, Any] | None = None,
+                 render_mode: str | None = None) -> None:
         check_off_menu(off_menu)
+        check_seed(seed)
+        check_max_steps(max_steps)
+        check_render_mode(render_mode)
         self.condition = one_condition(condition)
         self.configs = instances(source, task_id)
         self.weights = reward_weights(reward)
@@ -61,7 +74,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
         self.pool = ModelPool(partner_settings(model_settings))
         #: The one event loop the episodes' partner calls run on (made with the first episode).
         self.loop: asyncio.AbstractEventLoop | None = None
-        self.render_mode = None
+        self.render_mode = render_mode
         self.possible_agents = _all_seats(self.configs, self.condition.planner)
         self._frame = _frame_shape(self.configs[0]) if self.condition.obs_mode == IMAGE else None
         self._episodes: dict[str, SeatedEpisode] = {}
@@ -82,9 +95,10 @@ class CoCoBenchParallelEnv(ParallelEnv):
               ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode: the instance `options["task_id"]` names, else one drawn with
         the seeded generator (the only one when the source holds one)."""
+        check_seed(seed)
         if seed is not None:
             self._rng = np.random.default_rng(seed)
-        self.episode = self._episode_for(self._pick((options or {}).get("task_id")))
+        self.episode = self._episode_for(self._pick(reset_options(options).get("task_id")))
         self.episode.reset()
         self.agents = [s for s in self.episode.seats if s in self.learning]
         info = self._info()
@@ -102,21 +116,32 @@ class CoCoBenchParallelEnv(ParallelEnv):
         episode.step(moves)
         return self._outcome(episode, before, items)
 
+    def render(self) -> str | np.ndarray | None:
+        """The live seats' view as `render_mode` says: ``"ansi"``, each seat's prompt (its
+        menu lines when ``text=False``) under its name; ``"rgb_array"``, every robot's camera
+        frame side by side; None without a render mode."""
+        if self.render_mode is None:
+            return None
+        episode = self._live()
+        if self.render_mode == "ansi":
+            return "\n\n".join(f"== {seat} ==\n{text_view(episode, seat)}"
+                                 for seat in self.agents or self.learning)
+        return side_by_side([episode.episode.frame(a) for a in episode.spec.config.agent_ids])
+
     def close(self) -> None:
         """Close the partners' connections and the event loop they ran on (a later
-        `reset` starts afresh)."""
+        `reset` starts afresh); closing twice is harmless."""
         self._episodes.clear()
         if self.loop is not None:
             close_loop(self.loop, self.pool)
 
-    def __del__(self) -> None:
-        loop = getattr(self, "loop", None)
-        if loop is not None:
-            loop.close()  # (no model calls while collected)
-
     def set_partners(self, partners: Mapping[str, str]) -> None:
         """Have model specs play the seats `partners` names (checked); the rest learn. Call it
         before the first `reset` (`SeatEnv` does, once it has checked its seat)."""
+        unknown = sorted(set(partners) - set(self.possible_agents))
+        if unknown:
+            raise EnvError(f"partners name no seat {unknown[0]!r}: the seats under "
+                           f"{self.condition.name} are {', '.join(self.possible_agents)}")
         self.partners = dict(partners)
         self._episodes.clear()  # built with the partners before
         for spec in dict.fromkeys(self.partners.values()):
@@ -195,6 +220,10 @@ class CoCoBenchParallelEnv(ParallelEnv):
     def _episode_for(self, config: TaskConfig) -> SeatedEpisode:
         if self.loop is None or self.loop.is_closed():
             self.loop = asyncio.new_event_loop()
+            # Closed when the environment is collected or, at the latest, at interpreter
+            # exit while the modules a close needs are still there (a `__del__` ran during
+            # their teardown and printed "Exception ignored … EVENT_READ").
+            weakref.finalize(self, close_quietly, self.loop)
         episode = self._episodes.get(config.task_id)
         if episode is None:
             spec = EpisodeSpec(config, planner=self.condition.planner,
@@ -217,6 +246,70 @@ class CoCoBenchParallelEnv(ParallelEnv):
     def state_result(self):
         """The scored result of the ended episode (None before its end)."""
         return self.episode.result if self.episode is not None else None
+
+
+def check_seed(seed: Any) -> None:
+    """A seed is None or a non-negative integer (`EnvError` otherwise)."""
+    if seed is None:
+        return
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
+            or seed < 0:
+        raise EnvError(f"seed must be a non-negative integer or None, not {seed!r}")
+
+
+def check_max_steps(max_steps: Any) -> None:
+    """`max_steps` is None (the instance's budget) or a positive integer."""
+    if max_steps is None:
+        return
+    if isinstance(max_steps, (bool, np.bool_)) or not isinstance(max_steps, (int, np.integer)) \
+            or max_steps < 1:
+        raise EnvError(f"max_steps must be a positive integer (or None: the instance's step "
+                       f"budget), not {max_steps!r}")
+
+
+def check_render_mode(render_mode: Any) -> None:
+    if render_mode is not None and render_mode not in RENDER_MODES:
+        raise EnvError(f"render_mode must be {' or '.join(map(repr, RENDER_MODES))} (or None), "
+                       f"not {render_mode!r}")
+
+
+def reset_options(options: Any) -> Mapping[str, Any]:
+    """`reset`'s options checked: None or a dict; a name not in `RESET_OPTIONS` is told in
+    an `EnvWarning`, not refused (PettingZoo's API tests pass ``{"options": 1}`` to check
+    that `reset` takes options)."""
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise EnvError(f"reset options must be a dict such as {{'task_id': …}}, not "
+                       f"{options!r}")
+    unknown = sorted(set(options) - set(RESET_OPTIONS), key=str)
+    if unknown:
+        warnings.warn(f"unknown reset option {unknown[0]!r} is not read: the options are "
+                      f"{', '.join(RESET_OPTIONS)}", EnvWarning, stacklevel=3)
+    return options
+
+
+def text_view(episode: SeatedEpisode, seat: str) -> str:
+    """`seat`'s prompt now (rendered here when the episode skips prompts), else its menu
+    lines; what a waiting seat and an ended episode show."""
+    if episode.finished:
+        result = episode.result
+        return (f"the episode has ended ({episode.terminal_reason}): task success "
+                f"{result.task_success}, goal progress {result.task_progress}")
+    view = episode.view(seat)
+    if not view.acting:
+        return "(waits this phase)"
+    return episode.prompt_text(seat) or "\n".join(view.menu_lines)
+
+
+def side_by_side(pngs: list[bytes]) -> np.ndarray:
+    """PNG frames as one RGB array, left to right."""
+    import io
+
+    from PIL import Image
+
+    arrays = [np.asarray(Image.open(io.BytesIO(png)).convert("RGB")) for png in pngs]
+    return np.concatenate(arrays, axis=1)
 
 
 def checked_max_menu(configs: list[TaskConfig], max_menu: int | None) -> int:

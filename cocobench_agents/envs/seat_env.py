@@ -8,8 +8,16 @@ from typing import Any, ClassVar
 
 import gymnasium
 
-from cocobench_agents.envs.parallel import CoCoBenchParallelEnv, _seats_of
+from cocobench_agents.envs.parallel import (
+    RENDER_MODES,
+    CoCoBenchParallelEnv,
+    _seats_of,
+    check_seed,
+    side_by_side,
+    text_view,
+)
 from cocobench_agents.envs.seated import EnvError
+from cocobench_agents.graphs.registry import LEADER_SEAT, TEAM_SEAT
 from cocobench_agents.prompts import DEFAULT_SUITE
 
 
@@ -19,15 +27,16 @@ class SeatEnv(gymnasium.Env):
     model spec (``greedy``, ``random``, ``scripted:FILE``, ``replay:RUN``, a LiteLLM model).
     Spaces, rewards and options are `parallel_env`'s (docs/environments.md)."""
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": list(RENDER_MODES), "render_fps": 4}
 
     def __init__(self, source: str, *, condition: str, seat: str, partner: str,
                  task_id: str | None = None, prompt_suite: str = DEFAULT_SUITE,
                  reward: Mapping[str, float] | None = None, seed: int | None = None,
-                 **options: Any) -> None:
+                 render_mode: str | None = None, **options: Any) -> None:
         self.team = CoCoBenchParallelEnv(source, condition=condition, task_id=task_id,
                                          prompt_suite=prompt_suite, reward=reward, seed=seed,
-                                         partners={}, **options)
+                                         partners={}, render_mode=render_mode, **options)
+        self.render_mode = render_mode
         planner = self.team.condition.planner
         for config in self.team.configs:
             seats = _seats_of(config, planner)
@@ -40,6 +49,7 @@ class SeatEnv(gymnasium.Env):
         self.action_space = self.team.action_space(seat)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        check_seed(seed)  # (before Gymnasium's own error)
         super().reset(seed=seed)
         observations, infos = self.team.reset(seed=seed, options=options)
         return observations[self.seat], infos[self.seat]
@@ -49,6 +59,19 @@ class SeatEnv(gymnasium.Env):
             {self.seat: action})
         return (observations[self.seat], rewards[self.seat], terminations[self.seat],
                 truncations[self.seat], infos[self.seat])
+
+    def render(self) -> str | Any | None:
+        """The seat's view as `render_mode` says: ``"ansi"``, its prompt (its menu lines when
+        ``text=False``); ``"rgb_array"``, its camera frame (the team's seat and the leader:
+        every robot's, side by side); None without a render mode."""
+        if self.render_mode is None:
+            return None
+        episode = self.team._live()
+        if self.render_mode == "ansi":
+            return text_view(episode, self.seat)
+        agents = (episode.spec.config.agent_ids if self.seat in (TEAM_SEAT, LEADER_SEAT)
+                  else [self.seat])
+        return side_by_side([episode.episode.frame(a) for a in agents])
 
     def close(self) -> None:
         self.team.close()

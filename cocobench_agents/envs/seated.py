@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import weakref
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -71,13 +72,20 @@ DONE = -1
 STEPPED_GRAPHS = frozenset(f"{build.__module__}:{build.__name__}" for build in (
     build_centralized, build_decentralized, build_leader_worker))
 LEAD, WORK = "lead", "work"  # the two phases of a leader–worker round
-#: What an action off the menu does: raise, or be scored as an invalid id.
-OFF_MENU = ("error", "score")
+#: What an action off the menu does: be scored as an invalid id (the default: every element
+#: of an action space is then a valid action, as RL libraries' exploration and Gymnasium's and
+#: PettingZoo's checkers assume), or raise.
+OFF_MENU = ("score", "error")
 
 
 class EnvError(ValueError):
     """A call the environment cannot take: a bad action, a message where none is sent,
     stepping a finished episode, an unknown condition, seat or reward name."""
+
+
+class EnvWarning(UserWarning):
+    """Input the environment does not read but, to pass the ecosystem's checkers, does not
+    refuse: an unknown `reset` option."""
 
 
 @dataclass(frozen=True)
@@ -175,16 +183,16 @@ class SeatedEpisode:
     `pool` afresh for each episode (default: a pool with the ``COCOBENCH_RUN_*`` variables'
     settings, `partner_settings`); `text=False` skips
     rendering prompts (observations then carry no prompt text, and the trajectory's decisions
-    name the empty prompt). An action off the seat's menu is an `EnvError`; with
-    ``off_menu="score"`` it is scored as a model's reply naming an id not on its menu is (an
-    ``invalid_action_id`` decision), which Gymnasium's checker needs (it samples unmasked).
+    name the empty prompt). An action off the seat's menu is scored as a model's reply naming
+    an id not on its menu is (an ``invalid_action_id`` decision), and a message where none is
+    read now is not read; with ``off_menu="error"`` either is an `EnvError`.
     Partners' model calls run on `loop` when given (its owner closes it: the parallel
     environment shares one among its episodes), else on a loop the episode makes and
     `close` closes."""
 
     def __init__(self, spec: EpisodeSpec, *, partners: Mapping[str, str] | None = None,
                  pool: ClientFactory | None = None, text: bool = True,
-                 off_menu: str = "error", loop: asyncio.AbstractEventLoop | None = None
+                 off_menu: str = "score", loop: asyncio.AbstractEventLoop | None = None
                  ) -> None:
         check_off_menu(off_menu)
         self.off_menu = off_menu
@@ -256,10 +264,6 @@ class SeatedEpisode:
             close_loop(self._loop, self.pool)
             self._loop = None
 
-    def __del__(self) -> None:
-        if getattr(self, "_owns_loop", False) and self._loop is not None:
-            self._loop.close()  # (no model calls while collected)
-
     # -- observing ---------------------------------------------------------------------
 
     def view(self, seat: str) -> SeatView:
@@ -281,17 +285,23 @@ class SeatedEpisode:
         if not self.acting(seat):
             return SeatView(seat, False, "", ())
         tools = self.tools
+        prompt = self.prompt_text(seat) if self.text else ""
         if seat == LEADER_SEAT:
-            prompt = tools.leader_prompt(team_lines(tools), False)[0] if self.text else ""
             return SeatView(seat, True, prompt, (), sends_message=True)
         agent = None if seat == TEAM_SEAT else seat
-        if self.text:
-            prompt, _, _ = tools.prompt(agent, self._history(agent), self._board(agent),
-                                        self._broadcasts(agent), with_images=False)
-        else:
-            prompt = ""
         return SeatView(seat, True, prompt, tools.menu_options(agent), tools.menu_lines(agent),
                         sends_message=self._broadcasts(agent))
+
+    def prompt_text(self, seat: str) -> str:
+        """The prompt the harness would send `seat` now (rendered even when `text` is off:
+        `render`'s text view)."""
+        if not self.acting(seat):
+            return ""
+        if seat == LEADER_SEAT:
+            return self.tools.leader_prompt(team_lines(self.tools), False)[0]
+        agent = None if seat == TEAM_SEAT else seat
+        return self.tools.prompt(agent, self._history(agent), self._board(agent),
+                                 self._broadcasts(agent), with_images=False)[0]
 
     def _history(self, agent: str | None) -> list[str]:
         if agent is None:
@@ -322,11 +332,12 @@ class SeatedEpisode:
         no learner acts."""
         if self.finished:
             raise EnvError("the episode has ended: call reset() before stepping again")
-        self._check(actions)
-        self._play(actions)
+        self._play(self._checked(actions))
         self._settle()
 
-    def _check(self, actions: Mapping[str, SeatAction]) -> None:
+    def _checked(self, actions: Mapping[str, SeatAction]) -> dict[str, SeatAction]:
+        """`actions` checked, as they will be played (under ``off_menu="score"`` a message
+        where none is read now dropped, as the planner would not read it)."""
         acting = [s for s in self.learners if self.acting(s)]
         unknown = sorted(set(actions) - set(self.seats))
         if unknown:
@@ -334,20 +345,22 @@ class SeatedEpisode:
         missing = [s for s in acting if s not in actions]
         if missing:
             raise EnvError(f"no action for seat {missing[0]!r}, which acts now")
-        for seat, move in actions.items():
-            self._check_move(seat, move)
+        return {seat: self._checked_move(seat, move) for seat, move in actions.items()}
 
-    def _check_move(self, seat: str, move: SeatAction) -> None:
+    def _checked_move(self, seat: str, move: SeatAction) -> SeatAction:
         view = self.view(seat)
         if seat in self.partners:
             raise EnvError(f"seat {seat!r} is played by {self.partners[seat]}: "
                            "pass no action for it")
         if move.message and not view.sends_message:
-            why = "waits this phase" if not view.acting else "sends no messages"
-            raise EnvError(f"seat {seat!r} {why}: its action carries no message "
-                           f"(got {move.message[:40]!r})")
+            if self.off_menu == "score":
+                move = dataclasses.replace(move, message="")
+            else:
+                why = "waits this phase" if not view.acting else "sends no messages"
+                raise EnvError(f"seat {seat!r} {why}: its action carries no message "
+                               f"(got {move.message[:40]!r})")
         if move.action == DONE or self.off_menu == "score" or seat == LEADER_SEAT:
-            return  # (the leader's move is its message; its id is never read)
+            return move  # (the leader's move is its message; its id is never read)
         if not view.acting:
             raise EnvError(f"seat {seat!r} waits this phase: its action must be DONE (-1), "
                            f"not {move.action}")
@@ -356,6 +369,7 @@ class SeatedEpisode:
             raise EnvError(f"action {move.action} of seat {seat!r} is not on its menu (the "
                            f"action mask): ids now are {ids[:12]}{'…' if len(ids) > 12 else ''}"
                            " or DONE (-1)")
+        return move
 
     def _play(self, actions: Mapping[str, SeatAction]) -> None:
         if self.loop == LED_ROUND and self.phase == LEAD:
@@ -416,6 +430,9 @@ class SeatedEpisode:
     def _run(self, coroutine: Any) -> Any:
         if self._loop is None:
             self._loop = asyncio.new_event_loop()
+            # Closed when the episode is collected or at exit, while the modules a close
+            # needs are still there (not in a `__del__` during their teardown).
+            weakref.finalize(self, close_quietly, self._loop)
         return self._loop.run_until_complete(coroutine)
 
     # -- what the rewards read -----------------------------------------------------------
@@ -428,6 +445,13 @@ class SeatedEpisode:
     def landed(self, since: int) -> list[dict[str, Any]]:
         """The trajectory items of the steps landed since item `since`."""
         return [i for i in self._episode.items[since:] if "skill_result" in i]
+
+
+def close_quietly(loop: asyncio.AbstractEventLoop) -> None:
+    """Close `loop` unless it is closed or running (no model calls: a collected
+    environment's loop, or one still open at exit)."""
+    if not loop.is_closed() and not loop.is_running():
+        loop.close()
 
 
 def close_loop(loop: asyncio.AbstractEventLoop, pool: object | None = None) -> None:

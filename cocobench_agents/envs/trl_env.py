@@ -22,6 +22,9 @@ from cocobench_agents.graphs import DEFAULT_PLANNER, planner_spec
 from cocobench_agents.graphs.registry import LEADER_SEAT
 from cocobench_agents.prompts import DEFAULT_SUITE
 
+#: What `reset` puts before the seat's first prompt, which TRL appends to the dataset's prompt.
+SEPARATOR = "\n\n"
+
 
 class CoCoBenchTRLEnv:
     """One seat of a CoCoBench episode, played through tools; the rest of the team is the
@@ -35,6 +38,8 @@ class CoCoBenchTRLEnv:
     task_id: ClassVar[str | None] = None
     prompt_suite: ClassVar[str] = DEFAULT_SUITE
     reward_weights: ClassVar[Mapping[str, float] | None] = None
+    #: `SeatEnv`'s other options (``off_menu``, ``max_steps``, ``text``, ``model_settings``…).
+    env_options: ClassVar[Mapping[str, Any]] = {}
 
     def __init__(self) -> None:
         if self.seat == LEADER_SEAT:
@@ -42,9 +47,11 @@ class CoCoBenchTRLEnv:
                            "leader's (its move is a message, not a menu id)")
         self._env = SeatEnv(self.source, condition=self.condition, seat=self.seat,
                             partner=self.partner, task_id=self.task_id,
-                            prompt_suite=self.prompt_suite, reward=self.reward_weights)
+                            prompt_suite=self.prompt_suite, reward=self.reward_weights,
+                            **self.env_options)
         self._return = 0.0
         self._ended = True
+        self._mask: Any = None  # the current decision's action mask
 
     def reset(self, **example: Any) -> str:
         """Start an episode (on the instance an example's ``task_id`` names, else one drawn
@@ -52,7 +59,9 @@ class CoCoBenchTRLEnv:
         options = {"task_id": example["task_id"]} if example.get("task_id") else None
         observation, _ = self._env.reset(seed=example.get("seed"), options=options)
         self._return, self._ended = 0.0, False
-        return observation["prompt"]
+        self._mask = observation["action_mask"]
+        # TRL appends this to the dataset's last user message: a blank line between them.
+        return SEPARATOR + observation["prompt"]
 
     def act(self, action_id: int, message: str = "") -> str:
         """Take one action: the id of an entry of the action list in the prompt.
@@ -82,23 +91,31 @@ class CoCoBenchTRLEnv:
     def _step(self, action_id: int, message: str) -> str:
         if self._ended:
             raise EnvError("the episode has ended: no more actions")
+        action_id = int(action_id)
+        off_menu = not 0 <= action_id + 1 < len(self._mask) or not self._mask[action_id + 1]
         observation, reward, terminated, truncated, info = self._env.step(
-            {"action": int(action_id), "message": message})
+            {"action": action_id, "message": message})
         self._return += float(reward)
+        note = (f"Action {action_id} was not on the action list: it counted as an invalid "
+                "choice.\n\n" if off_menu else "")
         if terminated or truncated:
             self._ended = True
-            return (f"The episode has ended ({info['terminal_reason']}): task success "
+            return (f"{note}The episode has ended ({info['terminal_reason']}): task success "
                     f"{info['task_success']}, goal progress {info['task_progress']}.")
-        return observation["prompt"]
+        self._mask = observation["action_mask"]
+        return note + observation["prompt"]
 
 
 def trl_environment(source: str, *, condition: str, seat: str, partner: str = "greedy",
                     task_id: str | None = None, prompt_suite: str = DEFAULT_SUITE,
-                    reward: Mapping[str, float] | None = None) -> type[CoCoBenchTRLEnv]:
+                    reward: Mapping[str, float] | None = None, **options: Any
+                    ) -> type[CoCoBenchTRLEnv]:
     """A `CoCoBenchTRLEnv` class with these settings, checked by building one instance: pass
-    it as ``GRPOTrainer(environment_factory=…)``."""
+    it as ``GRPOTrainer(environment_factory=…)``. `options` are `SeatEnv`'s (``off_menu``,
+    ``max_steps``, ``text``, ``model_settings``, …)."""
     settings = {"source": source, "condition": condition, "seat": seat, "partner": partner,
-                "task_id": task_id, "prompt_suite": prompt_suite, "reward_weights": reward}
+                "task_id": task_id, "prompt_suite": prompt_suite, "reward_weights": reward,
+                "env_options": dict(options)}
     configured = type("CoCoBenchTRLEnv", (CoCoBenchTRLEnv,), settings)
     configured()  # bad settings fail here, not in the trainer
     return configured

@@ -4,6 +4,7 @@ real configs and on the built-in suites; they are deterministic; bad input is to
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -64,7 +65,7 @@ def test_gymnasium_check_env_passes_on_seat_env(source, task_id, condition):
     from cocobench_agents.envs import SeatEnv
 
     check_env(SeatEnv(source, condition=condition, seat=SEATS[condition], partner="random",
-                      task_id=task_id, off_menu="score"), skip_render_check=True)
+                      task_id=task_id), skip_render_check=True)
 
 
 def test_the_leader_seat_learns_with_robot_partners():
@@ -89,12 +90,14 @@ def rollout(environment, seed: int, steps: int = 40) -> list:
             break
         actions = {}
         for seat in environment.agents:
-            mask = observations[seat]["action_mask"]
-            ids = np.flatnonzero(mask if isinstance(mask, np.ndarray) else mask["action"]) - 1
+            observation = observations[seat]
+            ids = np.flatnonzero(observation["action_mask"]) - 1
             choice = int(rng.choice(ids[ids >= 0])) if (ids >= 0).any() else -1
-            sends = not isinstance(mask, np.ndarray) and mask["message"][0] > 0
-            actions[seat] = choice if isinstance(mask, np.ndarray) else \
-                {"action": choice, "message": f"agent_1: m{choice}" if sends else ""}
+            if "sends_message" not in observation:  # a seat that never broadcasts
+                actions[seat] = choice
+                continue
+            sends = observation["sends_message"] == 1
+            actions[seat] = {"action": choice, "message": f"agent_1: m{choice}" if sends else ""}
         observations, rewards, *_ = environment.step(actions)
         seen.append((observations, rewards))
     return seen
@@ -194,12 +197,10 @@ def test_seat_env_runs_under_gymnasium_vector(mode):
     from cocobench_agents.envs import SeatEnv
 
     def make():
-        return SeatEnv("demo", condition="D0_blind", seat="agent_1", partner="greedy",
-                       off_menu="score")
+        return SeatEnv("demo", condition="D0_blind", seat="agent_1", partner="greedy")
 
     kind = gymnasium.vector.SyncVectorEnv if mode == "sync" else gymnasium.vector.AsyncVectorEnv
-    options = {} if mode == "sync" else {"shared_memory": False}
-    vector = kind([make, make], **options)
+    vector = kind([make, make])  # (async: in shared memory, prompts' newlines and all)
     try:
         observations, _ = vector.reset(seed=[1, 2])
         masks = observations["action_mask"]
@@ -207,6 +208,7 @@ def test_seat_env_runs_under_gymnasium_vector(mode):
         observations, rewards, *_ = vector.step(actions)
         assert rewards.shape == (2,) and len(observations["prompt"]) == 2
         assert all("agent_1" in p for p in observations["prompt"])
+        assert all("\n" in p for p in observations["prompt"])
     finally:
         vector.close()
 
@@ -214,10 +216,22 @@ def test_seat_env_runs_under_gymnasium_vector(mode):
 # -- bad input -------------------------------------------------------------------------------
 
 
-def test_an_action_off_the_mask_is_refused():
+def test_an_action_off_the_mask_is_scored_as_an_invalid_id_by_default():
+    from cocobench_agents.envs import parallel_env
+
+    environment = parallel_env(TASKS, condition="C0_blind", task_id=REAL)
+    environment.reset()
+    _, _, terminations, _, infos = environment.step({"team": 999})
+    assert terminations == {"team": True}  # as the reference ends C0 on an invalid id
+    decision = environment.episode.document["planner_decisions"][-1]
+    assert decision["status"] == "invalid_action_id" and decision["parsed_action_id"] == "999"
+    assert infos["team"]["task_success"] == 0
+
+
+def test_an_action_off_the_mask_is_refused_when_asked():
     from cocobench_agents.envs import EnvError, parallel_env
 
-    environment = parallel_env(TASKS, condition="D0_blind", task_id=REAL)
+    environment = parallel_env(TASKS, condition="D0_blind", task_id=REAL, off_menu="error")
     environment.reset()
     with pytest.raises(EnvError, match=r"action 999 of seat 'agent_1' is not on its menu"):
         environment.step({"agent_1": 999, "agent_2": -1})
@@ -238,14 +252,14 @@ def test_the_action_space_holds_every_menu_id_and_a_smaller_one_is_refused():
                         ).action_space("agent_1").n == 402
 
 
-def test_a_message_from_a_seat_that_sends_none_is_refused():
+def test_a_message_from_a_seat_that_sends_none_is_refused_when_asked():
     from cocobench_agents.envs import EnvError, parallel_env
 
     environment = parallel_env(TASKS, condition="D0_blind", task_id=REAL)
     environment.reset()
     with pytest.raises(EnvError, match="seat 'agent_1' sends no messages"):
         environment.step({"agent_1": {"action": 0, "message": "hi"}, "agent_2": -1})
-    led = parallel_env(TASKS, condition="LW_blind", task_id=REAL)
+    led = parallel_env(TASKS, condition="LW_blind", task_id=REAL, off_menu="error")
     led.reset()
     with pytest.raises(EnvError, match="seat 'agent_1' waits this phase"):
         led.step({"leader": {"action": -1, "message": "agent_1: go"},
@@ -286,7 +300,7 @@ def test_unknown_names_are_told():
                 task_id=REAL)
     with pytest.raises(Exception, match="unknown task 'nope'"):
         parallel_env(TASKS, condition="C0_blind", task_id="nope")
-    with pytest.raises(EnvError, match="off_menu must be 'error' or 'score', not 'skip'"):
+    with pytest.raises(EnvError, match="off_menu must be 'score' or 'error', not 'skip'"):
         parallel_env(TASKS, condition="C0_blind", task_id=REAL, off_menu="skip")
     with pytest.raises(EnvError, match="unknown task_id 'nope' in options"):
         parallel_env(TASKS, condition="C0_blind").reset(options={"task_id": "nope"})
@@ -339,3 +353,115 @@ def test_closing_the_env_closes_its_one_loop_and_the_partners_clients():
     assert len(episodes) == 2 and all(e._loop is loop for e in episodes)
     environment.close()
     assert loop.is_closed() and closed == [loop]
+
+
+def test_a_waiting_seats_message_is_not_read_by_default():
+    from cocobench_agents.envs import parallel_env
+
+    led = parallel_env(TASKS, condition="LW_blind", task_id=REAL)
+    observations, _ = led.reset()
+    assert observations["agent_1"]["sends_message"] == 0  # the leader speaks first
+    led.step({"leader": {"action": 5, "message": "agent_1: find the apple"},
+              "agent_1": {"action": 3, "message": "me too"},
+              "agent_2": {"action": -1, "message": ""}})
+    assert led.episode.state["directives"]["agent_1"] == "find the apple"
+    assert "me too" not in str(led.episode.episode.items)
+
+
+@pytest.mark.parametrize(("call", "error"), [
+    (lambda e: e.reset(options="x"), r"reset options must be a dict such as \{'task_id': …\}, "
+                                     r"not 'x'"),
+    (lambda e: e.reset(seed=-1), "seed must be a non-negative integer or None, not -1"),
+    (lambda e: e.reset(seed=1.5), "seed must be a non-negative integer or None, not 1.5"),
+    (lambda e: e.reset(seed="7"), "seed must be a non-negative integer or None, not '7'"),
+])
+def test_bad_reset_arguments_are_told(call, error):
+    from cocobench_agents.envs import EnvError, SeatEnv, parallel_env
+
+    with pytest.raises(EnvError, match=error):
+        call(parallel_env(TASKS, condition="C0_blind", task_id=REAL))
+    with pytest.raises(EnvError, match=error):
+        call(SeatEnv(TASKS, condition="C0_blind", seat="team", partner="greedy",
+                     task_id=REAL))
+
+
+def test_an_unknown_reset_option_is_warned_about_not_dropped_silently():
+    from cocobench_agents.envs import EnvWarning, parallel_env
+
+    environment = parallel_env(TASKS, condition="C0_blind", task_id=REAL)
+    with pytest.warns(EnvWarning, match="unknown reset option 'taskid' is not read: the "
+                                        "options are task_id"):
+        environment.reset(options={"taskid": REAL})
+
+
+@pytest.mark.parametrize(("options", "error"), [
+    ({"max_steps": 0}, "max_steps must be a positive integer .* not 0"),
+    ({"max_steps": -3}, "max_steps must be a positive integer .* not -3"),
+    ({"max_steps": 2.5}, "max_steps must be a positive integer .* not 2.5"),
+    ({"seed": -2}, "seed must be a non-negative integer or None, not -2"),
+    ({"partners": {"agent_9": "greedy"}}, "partners name no seat 'agent_9': the seats under "
+                                          "D0_blind are agent_1, agent_2"),
+    ({"render_mode": "human"}, "render_mode must be 'ansi' or 'rgb_array' .*not 'human'"),
+])
+def test_bad_options_are_told(options, error):
+    from cocobench_agents.envs import EnvError, parallel_env
+
+    with pytest.raises(EnvError, match=error):
+        parallel_env(TASKS, condition="D0_blind", task_id=REAL, **options)
+
+
+def test_a_message_over_its_limit_is_refused_not_cut():
+    from cocobench_agents.envs import EnvError, parallel_env
+
+    environment = parallel_env(TASKS, condition="D1_blind", task_id=REAL)
+    environment.reset()
+    space = environment.action_space("agent_1")["message"]
+    assert space.contains("x" * 200) and not space.contains("x" * 201)
+    with pytest.raises(EnvError, match="the message of seat 'agent_1' is 201 characters: the "
+                                       "limit is 200"):
+        environment.step({"agent_1": {"action": -1, "message": "x" * 201}, "agent_2": -1})
+    with pytest.raises(EnvError, match="must be one line"):
+        environment.step({"agent_1": {"action": -1, "message": "a\nACTION: 3"},
+                          "agent_2": -1})
+    environment.step({"agent_1": {"action": -1, "message": "y" * 200}, "agent_2": -1})
+    sent = [d for d in environment.episode.tools.decisions if d.get("message")]
+    assert sent[-1]["message"] == "y" * 200
+
+
+def test_render_modes():
+    import gymnasium
+
+    from cocobench_agents.envs import SEAT_ENV_ID, SeatEnv, parallel_env
+
+    text = gymnasium.make(SEAT_ENV_ID, source=TASKS, condition="D1_blind", seat="agent_1",
+                          partner="greedy", task_id=REAL, render_mode="ansi", text=False)
+    observation, _ = text.reset(seed=0)
+    view = text.render()
+    assert observation["prompt"] == "" and "You are agent_1" in view  # rendered on demand
+    frames = SeatEnv(TASKS, condition="C0_blind", seat="team", partner="greedy",
+                     task_id=REAL, render_mode="rgb_array")
+    frames.reset(seed=0)
+    picture = frames.render()
+    assert picture.dtype == np.uint8 and picture.ndim == 3 and picture.shape[2] == 3
+    assert SeatEnv(TASKS, condition="C0_blind", seat="team", partner="greedy",
+                   task_id=REAL).render() is None
+    team = parallel_env(TASKS, condition="LW_blind", task_id=REAL, render_mode="ansi")
+    team.reset()
+    assert "== leader ==" in team.render() and "(waits this phase)" in team.render()
+
+
+@pytest.mark.needs_trl
+def test_a_script_that_imports_torch_exits_cleanly(tmp_path):
+    import subprocess
+    import sys
+
+    script = tmp_path / "train.py"
+    script.write_text(
+        "import torch  # noqa: F401  (its teardown order made the loop's close fail)\n"
+        "from cocobench_agents.envs import parallel_env\n"
+        "environment = parallel_env('demo', condition='D0_blind',\n"
+        "                           partners={'agent_1': 'greedy'})\n"
+        "environment.reset(seed=0)\n")
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=300, cwd=Path(__file__).resolve().parents[2])
+    assert done.returncode == 0 and done.stderr == ""

@@ -36,17 +36,31 @@ def test_a_parsed_tool_call_plays_the_seat_and_the_reward_is_the_environments(
     tokenizer = tiny_tokenizer()
     environment = environment_class()
     first = environment.reset(task_id="C_D2__DemoBedroom1__3agent_seed0", prompt="ignored")
-    assert "YOUR STATE" in first
+    assert "YOUR STATE" in first and first.startswith("\n\nYou are agent_1")  # (appended)
     reply = ('<tool_call>\n{"name": "act", "arguments": {"action_id": 0, "message": "hi"}}\n'
              "</tool_call><|im_end|>")
     call = tokenizer.parse_response(reply, prefix="")["tool_calls"][0]["function"]
     following = getattr(environment, call["name"])(**call["arguments"])
     assert "1. Find(agent_1" in following
-    with pytest.raises(ValueError, match="is not on its menu"):  # TRL shows it as an error
-        environment.act(999)
+    # An id off the menu is scored as a model's invalid id, and the tool says so.
+    assert environment.act(999).startswith("Action 999 was not on the action list")
     while not environment.done().startswith("The episode has ended"):
         pass
     assert isinstance(environment.get_reward(), float)
+
+
+def test_the_envs_options_reach_the_seat():
+    from cocobench_agents.envs import trl_environment
+
+    strict = trl_environment("demo", condition="D1_blind", seat="agent_1", off_menu="error",
+                             max_steps=3)()
+    strict.reset(task_id="C_D2__DemoBedroom1__3agent_seed0")
+    with pytest.raises(ValueError, match="is not on its menu"):  # TRL shows it as an error
+        strict.act(999)
+    ended = ""
+    while not ended.startswith("The episode has ended"):  # first legal ids, a step budget of 3
+        ended = strict.act(int(strict._mask[1:].argmax()))
+    assert ended.startswith("The episode has ended (max_steps)")
 
 
 def tiny_tokenizer():

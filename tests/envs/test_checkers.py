@@ -1,0 +1,84 @@
+"""Every checker of the ecosystem passes with the environments' defaults, for every built-in
+condition, blind and image: Gymnasium's `check_env` (through `gymnasium.make`, so its render
+modes are checked too), PettingZoo's `parallel_api_test`, `api_test`, `parallel_seed_test`
+and `seed_test`, and Gymnasium's `SyncVectorEnv` and `AsyncVectorEnv` (default shared
+memory). They sample the action spaces unmasked, as RL libraries explore: every element of an
+action space is a valid action."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from tests.paths import SHARED_TASKS
+
+pytestmark = [pytest.mark.needs_env, pytest.mark.slow]
+
+TASKS = str(SHARED_TASKS)
+REAL = "A_D1__FloorPlan1__seed0"  # agents agent_1, agent_2
+CONDITIONS = [f"{code}_{mode}" for mode in ("blind", "image") for code in ("C0", "D0", "D1", "LW")]
+#: The learning seat `check_env` and the vector environments play, per planner code.
+SEATS = {"C0": "team", "D0": "agent_1", "D1": "agent_2", "LW": "agent_1"}
+
+
+@pytest.fixture(autouse=True)
+def _quiet():
+    # The checkers warn about dict and text spaces (the prompt needs them) and about reset's
+    # option {"options": 1}, which PettingZoo passes to check that options are taken.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
+
+
+@pytest.mark.parametrize("condition", CONDITIONS)
+def test_every_checker_passes_with_the_defaults(condition):
+    import gymnasium
+    from gymnasium.utils.env_checker import check_env
+    from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
+
+    from cocobench_agents.envs import SEAT_ENV_ID, env, parallel_env
+
+    cycles = 10 if condition.endswith("image") else 40  # (an image step draws frames)
+    settings = {"source": TASKS, "condition": condition, "task_id": REAL}
+    seats = [SEATS[condition[:2]], *(["leader"] if condition.startswith("LW") else [])]
+    for seat in seats:
+        made = gymnasium.make(SEAT_ENV_ID, seat=seat, partner="random", render_mode="ansi",
+                              **settings)
+        check_env(made.unwrapped)  # render modes too: ansi here, rgb_array through the spec
+        made.close()
+    parallel_api_test(parallel_env(**settings), num_cycles=cycles)
+    api_test(env(**settings), num_cycles=cycles)
+    parallel_seed_test(lambda: parallel_env(**settings), num_cycles=cycles)
+    seed_test(lambda: env(**settings), num_cycles=cycles)
+    # Async holds the observations in shared memory: they are the same as Sync's.
+    seen = play_vector(gymnasium.vector.SyncVectorEnv, condition, settings)
+    assert all(seen[0]) and seen == play_vector(gymnasium.vector.AsyncVectorEnv, condition,
+                                                settings)
+
+
+def play_vector(vector_class, condition: str, settings: dict) -> list[tuple[str, ...]]:
+    """The prompts of a few steps of two seat environments under `vector_class`, played
+    with seeded unmasked samples."""
+    import gymnasium
+
+    from cocobench_agents.envs import SEAT_ENV_ID
+
+    def make():
+        return gymnasium.make(SEAT_ENV_ID, seat=SEATS[condition[:2]], partner="random",
+                              **settings)
+
+    vector = vector_class([make, make])
+    try:
+        vector.action_space.seed(0)
+        observations, _ = vector.reset(seed=[1, 2])
+        assert observations["action_mask"].dtype == np.int8
+        prompts = [tuple(observations["prompt"])]
+        for _ in range(3):
+            observations, rewards, *_ = vector.step(vector.action_space.sample())
+            assert rewards.shape == (2,)
+            prompts.append(tuple(observations["prompt"]))
+        return prompts
+    finally:
+        vector.close()
