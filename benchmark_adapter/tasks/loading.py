@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import warnings
 from collections.abc import Iterable
 from importlib import resources
@@ -48,6 +49,10 @@ _SHOWN_IDS = 5
 # Deeper JSON than this is not a config (real ones nest 5 levels); refusing it here keeps
 # every later reader and writer of the data clear of Python's recursion limit.
 MAX_JSON_DEPTH = 64
+
+# Where a lone surrogate can come from: the file was read as strict UTF-8, so only a JSON
+# escape of one (a pair's escapes decode to one valid character, and pass).
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F][0-9a-fA-F]{2}")
 
 
 # -- public API --------------------------------------------------------------------------
@@ -103,7 +108,36 @@ def read_json(path: str | Path) -> Any:
         raise _too_deep(path) from None
     if _depth_exceeds(data, MAX_JSON_DEPTH):
         raise _too_deep(path)
+    if _SURROGATE_ESCAPE.search(text):
+        _refuse_lone_surrogates(path, data)
     return data
+
+
+def _refuse_lone_surrogates(path: str | Path, data: Any) -> None:
+    """Refuse text that is not Unicode: a JSON escape of half a surrogate pair (``\\ud800``)
+    decodes to a string that no UTF-8 file (a trajectory, a result line) can hold, so an
+    episode of it could not be recorded."""
+    stack: list[tuple[Any, tuple[str, ...]]] = [(data, ())]
+    while stack:
+        value, where = stack.pop()
+        if isinstance(value, dict):
+            for key, child in value.items():
+                _check_text(path, key, where)
+                stack.append((child, (*where, key)))
+        elif isinstance(value, list):
+            stack.extend((child, (*where, str(i))) for i, child in enumerate(value))
+        elif isinstance(value, str):
+            _check_text(path, value, where)
+
+
+def _check_text(path: str | Path, text: str, where: tuple[str, ...]) -> None:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        lone = f"\\u{ord(text[exc.start]):04x}"
+        raise TaskConfigError(path, f"not valid UTF-8 text: a lone surrogate ({lone}, from a "
+                                    "JSON escape) that no run folder can record",
+                              ".".join(where) or None) from None
 
 
 def _too_deep(path: str | Path) -> TaskConfigError:

@@ -34,6 +34,7 @@ from cocobench_agents.harness.executor import (
 )
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.secrets import redact
+from cocobench_agents.runfolder.errors import RunFolderError, RunFolderWriteError
 from cocobench_agents.runfolder.folder import RunFolder
 from cocobench_agents.runfolder.result_line import infra_error_line
 
@@ -124,11 +125,30 @@ async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactor
                   timeout_s: float | None = None,
                   on_step: StepCallback | None = None
                   ) -> tuple[dict[str, Any], dict[str, Any] | None]:
-    """One episode → its result line (an infrastructure failure, or running past `timeout_s`
-    of wall-clock time, becomes an error line) and its trajectory document (None when it
-    could not run)."""
-    key, spec = planned.key, planned.spec
+    """One episode → its result line and its trajectory document (None when it could not
+    run). Whatever the episode raises, in any phase (a model's reply, parsing, the simulator,
+    scoring, writing its trajectory), and running past `timeout_s` of wall-clock time, make
+    it an infrastructure error naming the exception's type and message; only a run folder
+    that cannot be used (`RunFolderError`, `RunFolderWriteError`) is raised: it is not this
+    episode failing, and the run stops with it."""
     started = time.perf_counter()
+    try:
+        return await _run_and_write(planned, folder, pool, timeout_s=timeout_s,
+                                    on_step=on_step, started=started)
+    except (RunFolderError, RunFolderWriteError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - one broken episode must not stop the run
+        elapsed = time.perf_counter() - started
+        error = redact(repr(exc), _secrets(pool))  # a dead Unity's reads `ThorCrashed(…`
+        if isinstance(exc, TimeoutError) and timeout_s is not None and elapsed >= timeout_s:
+            error = timeout_error(timeout_s)
+        return infra_error_record(planned, error, elapsed), None
+
+
+async def _run_and_write(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactory, *,
+                         timeout_s: float | None, on_step: StepCallback | None,
+                         started: float) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    key, spec = planned.key, planned.spec
     step_hook = None if on_step is None else functools.partial(on_step, key.as_dict())
     try:
         document, result = await asyncio.wait_for(
@@ -137,22 +157,40 @@ async def run_one(planned: PlannedEpisode, folder: RunFolder, pool: ClientFactor
     except PlannerNodeError as exc:  # its trajectory shows what led to the node's exception
         record = infra_error_record(planned, redact(str(exc), _secrets(pool)),
                                     time.perf_counter() - started)
-        record["trajectory"] = folder.write_trajectory(key, exc.document)
-        return record, exc.document
-    except Exception as exc:  # noqa: BLE001 - one broken episode must not stop the run
-        elapsed = time.perf_counter() - started
-        error = redact(repr(exc), _secrets(pool))
-        if isinstance(exc, TimeoutError) and timeout_s is not None and elapsed >= timeout_s:
-            error = (f"episode timed out after {timeout_s:g} s of wall-clock time "
-                     "(--episode-timeout)")
-        return infra_error_record(planned, error, elapsed), None
-    # Outside the try: a run folder that cannot be written stops the run
-    # (`RunFolderWriteError`); it is not this episode failing.
-    relative = folder.write_trajectory(key, document)
+        return store_trajectory(folder, planned, record, exc.document)
     result = result.model_copy(update={
-        "condition": key.condition, "epoch": key.epoch, "trajectory": relative,
+        "condition": key.condition, "epoch": key.epoch,
         "elapsed_s": round(time.perf_counter() - started, 3)})
-    return {**result.model_dump(mode="json"), **key.as_dict()}, document
+    return store_trajectory(folder, planned, {**result.model_dump(mode="json"),
+                                              **key.as_dict()}, document)
+
+
+def store_trajectory(folder: RunFolder, planned: PlannedEpisode, record: dict[str, Any],
+                     document: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """Write `document`, the trajectory of `record`'s episode, and name it in `record`. A
+    document the run folder cannot hold (text that is not valid UTF-8, a value JSON cannot
+    write) makes the episode an infrastructure error naming why (then no document); a folder
+    that cannot be written raises (`RunFolderWriteError`): the run stops."""
+    try:
+        record["trajectory"] = folder.write_trajectory(planned.key, document)
+    except (RunFolderError, RunFolderWriteError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - the document's fault, not the folder's
+        error = f"the trajectory could not be written: {described(exc)}"
+        before = record.get("infra_error")
+        return infra_error_record(planned, f"{before}; {error}" if before else error,
+                                  float(record.get("elapsed_s") or 0.0)), None
+    return record, document
+
+
+def described(exc: BaseException) -> str:
+    """An exception as a result line names it: its type and its message."""
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+
+
+def timeout_error(timeout_s: float) -> str:
+    """The `infra_error` of an episode that ran past `timeout_s` (``--episode-timeout``)."""
+    return f"episode timed out after {timeout_s:g} s of wall-clock time (--episode-timeout)"
 
 
 def infra_error_record(planned: PlannedEpisode, error: str, elapsed: float) -> dict[str, Any]:

@@ -11,7 +11,7 @@ from collections import Counter, deque
 from dataclasses import dataclass, field
 from typing import Any
 
-from cocobench_agents.harness.batch import infra_error_record
+from cocobench_agents.harness.batch import infra_error_record, store_trajectory
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.errors import fatal_model_error
 from cocobench_agents.harness.executor import EpisodeRecorded, ExecutorEventHandler
@@ -84,11 +84,11 @@ class ResultCollector:
         that cannot be written stops the run, as in `run_one`), with where it ran; a fatal
         model error in it stops the dispatch."""
         assert job.worker.info is not None  # only started workers are sent episodes
+        if document is not None:  # one the folder cannot hold makes it an error line
+            record, document = store_trajectory(self.folder, job.planned, record, document)
         record["node"] = job.worker.info.node
         if self.requeued[job.planned.key]:
             record["requeued"] = self.requeued[job.planned.key]
-        if document is not None:
-            record["trajectory"] = self.folder.write_trajectory(job.planned.key, document)
         self.folder.append_result(record)
         self.on_event(EpisodeRecorded(record))
         self.halt.stop_with(fatal_model_error(record, document))

@@ -11,9 +11,12 @@ result line back), and it watches each worker from outside (`runaway`): a worker
 memory budget or whose event loop stopped is killed, as is the only way to stop code that
 never yields. A worker that dies or is killed is replaced; the episodes it had in flight run
 again alone, once, and the one that fails again is recorded as an infrastructure error naming
-the cause. A worker that cannot write the run folder sends the error and the run stops with
-it; a fatal model error stops the handing out of episodes, and is raised once those in
-flight are recorded.
+the cause. A worker reports every episode it is given, whatever escapes it (an
+infrastructure error naming the exception), and the supervisor ends one still in flight
+`OVERDUE_GRACE_S` past its timeout itself, so it never waits on an episode that has ended. A
+worker that cannot write the run folder sends the error and the run stops with it; a fatal
+model error stops the handing out of episodes, and is raised once those in flight are
+recorded.
 """
 
 from __future__ import annotations
@@ -33,7 +36,14 @@ from pathlib import Path
 from typing import Any
 
 from cocobench_agents.graphs import compiled_graph
-from cocobench_agents.harness.batch import infra_error_record, longest_first, run_one, start_key
+from cocobench_agents.harness.batch import (
+    described,
+    infra_error_record,
+    longest_first,
+    run_one,
+    start_key,
+    timeout_error,
+)
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.errors import FatalModelError, WorkerError, fatal_model_error
 from cocobench_agents.harness.execution_settings import ExecutionSettings
@@ -48,13 +58,16 @@ from cocobench_agents.harness.executor import (
     ignore,
 )
 from cocobench_agents.harness.runaway import MEMORY, machine_memory_low, rss_bytes
-from cocobench_agents.models import ModelPool, ModelSettings
+from cocobench_agents.models import ModelPool, ModelSettings, redact
 from cocobench_agents.runfolder.errors import RunFolderError, RunFolderWriteError
 from cocobench_agents.runfolder.folder import RunFolder
 
 POLL_S = 0.2  # how often the supervisor looks at its workers when no message arrives
 BEAT_S = 0.1  # how often a worker's event loop says it is alive
 MAX_IDLE_DEATHS = 3  # workers dying with no episode in flight: something else is broken
+#: How long past `--episode-timeout` the supervisor waits for a worker to end an episode
+#: before it stops the worker itself (the worker's own timeout should have fired).
+OVERDUE_GRACE_S = 30.0
 
 
 def available_cores() -> int:
@@ -242,6 +255,12 @@ class _Supervisor:
             self._record(worker, index, record)
             if fatal is not None and self.fatal is None:
                 self.fatal = fatal
+        elif kind == "failed":  # the episode's result line could not be made there
+            _, index, error = message
+            since = worker.in_flight.get(index, time.monotonic())
+            self._record(worker, index, infra_error_record(
+                self.episodes[index], redact(error, self.settings.secrets()),
+                time.monotonic() - since))
         elif kind == "error":
             raise message[1]  # the run folder cannot be written: the run stops
 
@@ -254,6 +273,10 @@ class _Supervisor:
         self.next_watch = now + POLL_S
         grown: dict[_Worker, int | None] = {}
         for worker in list(self.workers):
+            overdue = self._overdue(worker, now)
+            if overdue:
+                self._stop_overdue(worker, overdue, now)
+                continue
             rss = rss_bytes(worker.process.pid or 0)
             grown[worker] = (None if rss is None or worker.start_rss is None
                              else rss - worker.start_rss)
@@ -266,6 +289,30 @@ class _Supervisor:
         busy = {w: g for w, g in grown.items() if w.in_flight and g is not None}
         if busy and machine_memory_low():
             self._kill(max(busy, key=lambda w: busy[w]), MEMORY)
+
+    def _overdue(self, worker: _Worker, now: float) -> list[int]:
+        """The episodes of `worker` past their timeout by more than `OVERDUE_GRACE_S`: its
+        own timeout should have ended them, so something there is broken."""
+        if self.episode_timeout_s is None:
+            return []
+        deadline = self.episode_timeout_s + OVERDUE_GRACE_S
+        return [index for index, since in worker.in_flight.items() if now - since > deadline]
+
+    def _stop_overdue(self, worker: _Worker, overdue: list[int], now: float) -> None:
+        """Record `overdue` episodes as timed out and stop their worker (nothing else ends
+        them there); its other episodes run again alone, as a lost worker's do."""
+        assert self.episode_timeout_s is not None
+        worker.process.kill()
+        for index in overdue:
+            since = worker.in_flight.pop(index)
+            self._store(index, infra_error_record(
+                self.episodes[index], timeout_error(self.episode_timeout_s), now - since))
+        if worker.in_flight:
+            self._lost(worker, "its worker was stopped: another episode there ran past "
+                               "--episode-timeout")
+        else:
+            worker.process.join()
+            self._replace(worker)
 
     def _kill(self, worker: _Worker, cause: str) -> None:
         worker.process.kill()
@@ -377,13 +424,21 @@ async def _serve(conn: Connection, episodes: list[PlannedEpisode], folder: RunFo
 
     async def one(index: int) -> None:
         conn.send(("started", index))
+        message: tuple
         try:
             record, document = await run_one(episodes[index], folder, pool,
                                              timeout_s=timeout_s)
+            message = ("done", index, record, fatal_model_error(record, document))
         except (RunFolderError, RunFolderWriteError) as exc:
-            conn.send(("error", exc))  # the supervisor stops the run with it
-            return
-        conn.send(("done", index, record, fatal_model_error(record, document)))
+            message = ("error", exc)  # the supervisor stops the run with it
+        except Exception as exc:  # noqa: BLE001 - the supervisor must hear of every episode
+            message = ("failed", index, described(exc))
+        try:
+            conn.send(message)
+        except OSError:
+            raise  # the supervisor is gone: nobody to tell
+        except Exception as exc:  # noqa: BLE001 - a message that cannot be sent (pickled)
+            conn.send(("failed", index, f"its result could not be sent: {described(exc)}"))
 
     try:
         while (index := await inbox.get()) is not None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
+import json
 import os
 from typing import Any
 
@@ -116,7 +117,7 @@ class OpenAIHTTPClient(RemoteClient):
 
     def _completion(self, raw: bytes) -> Completion:
         try:
-            data = orjson.loads(raw)
+            data = _json(raw)
             message = data["choices"][0]["message"] if data.get("choices") else {}
             usage = data.get("usage") or {}
             prompt_tokens = int(usage.get("prompt_tokens") or 0)
@@ -149,6 +150,16 @@ async def _close_when_cancelled(session: Any) -> None:
         await asyncio.get_running_loop().create_future()  # never set: waits for cancellation
     finally:
         await session.close()
+
+
+def _json(raw: bytes) -> Any:
+    """The JSON of a response body. orjson refuses a lone surrogate's escape (``\\ud800``),
+    which the JSON standard allows and LiteLLM's parser takes: the standard library reads
+    such a body, so both transports see the same reply (made writable by the client)."""
+    try:
+        return orjson.loads(raw)
+    except orjson.JSONDecodeError:
+        return json.loads(raw)
 
 
 def _error_message(raw: bytes) -> str:

@@ -5,6 +5,7 @@ transport subclass only sends one attempt and says what its failures mean."""
 from __future__ import annotations
 
 import asyncio
+import re
 import time
 import weakref
 from dataclasses import dataclass
@@ -26,6 +27,7 @@ from .secrets import redact
 from .settings import ModelSettings
 
 _MAX_ERROR_CHARS = 600  # provider error bodies can be long; a record needs the gist
+_LONE_SURROGATE = re.compile("[\ud800-\udfff]")
 
 
 @dataclass(frozen=True)
@@ -158,7 +160,7 @@ class RemoteClient:
                 raise EmptyCompletion("the model returned an empty completion")
         except Exception as exc:  # noqa: BLE001 - every failure must become a ModelError
             raise self._error(exc, time.perf_counter() - start, spent) from None
-        text, dropped = cap_reply(completion.text, s.max_reply_chars)
+        text, dropped = cap_reply(writable_text(completion.text), s.max_reply_chars)
         return ModelReply(text=text, latency_s=time.perf_counter() - start,
                           truncated_chars=dropped, **spent)
 
@@ -174,7 +176,7 @@ class RemoteClient:
     def _error(self, exc: BaseException, latency_s: float, spent: dict[str, Any]
                ) -> ModelError:
         kind, transient = self._kind(exc)
-        detail = str(exc).strip().replace("\n", " ")
+        detail = writable_text(str(exc)).strip().replace("\n", " ")
         if len(detail) > _MAX_ERROR_CHARS:
             detail = detail[:_MAX_ERROR_CHARS] + "…"
         message = f"{self.model}: {type(exc).__name__}: {detail}"
@@ -185,3 +187,14 @@ class RemoteClient:
         return ModelError(kind=kind, message=redact(message, self.settings.secrets()),
                           latency_s=latency_s, extra=extra, transient=transient,
                           retry_after_s=retry_after_s(exc))
+
+
+def writable_text(text: str) -> str:
+    """`text` with each lone surrogate replaced by U+FFFD: a server's JSON escape such as
+    ``\\ud800`` decodes to one, and no UTF-8 file (a trajectory, the cache) can hold it, so
+    a reply is made writable where it enters and judged by parsing like any other."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return _LONE_SURROGATE.sub("\ufffd", text)
+    return text
