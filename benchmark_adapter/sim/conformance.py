@@ -37,6 +37,11 @@ OBJECT_KEYS = (
     "isSliced",
 )
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# Where a content may lie around its receptacle's position when the backend reports no
+# `axisAlignedBoundingBox` (the embedded world's slots reach 0.41 m): horizontal and vertical
+# metres. A content left behind by a moved receptacle lies metres away.
+CONTENT_REACH, CONTENT_RISE = 0.6, 2.0
+BOX_SLACK = 0.1  # metres around a reported bounding box
 
 
 class ConformanceError(AssertionError):
@@ -67,6 +72,7 @@ def _exercise(ctl: Controller) -> list[str]:
     nesting = _check_nothing_inside_itself(ctl)
     if nesting is not None:
         trace.append(_canon(nesting))
+    trace += [_canon(md) for md in _check_contents_travel(ctl)]
     _check_frame(ctl)
     return trace
 
@@ -142,8 +148,13 @@ def _check_one_holder(ctl: Controller, object_id: str) -> Sequence[Metadata]:
 
 
 def _step(ctl: Controller, action: str, **kwargs: Any) -> Sequence[Metadata]:
-    """`ctl.step`, then the containment invariant on the metadata it returned."""
-    return _check_containment(action, ctl.step(action, **kwargs))
+    """`ctl.step`, then the containment invariants on the metadata it returned. A step that
+    raises breaches the contract too (a failed action is reported, not raised)."""
+    try:
+        metadata = ctl.step(action, **kwargs)
+    except Exception as exc:
+        raise ConformanceError(f"after {action}: the step raised {exc!r}") from exc
+    return _check_contents_within(action, _check_containment(action, metadata))
 
 
 def _check_containment(action: str, metadata: Sequence[Metadata]) -> Sequence[Metadata]:
@@ -166,6 +177,93 @@ def _check_containment(action: str, metadata: Sequence[Metadata]) -> Sequence[Me
         _expect(cycle is None,
                 f"after {action}: an object lies inside itself: {' -> '.join(cycle or [])}")
     return metadata
+
+
+def _check_contents_within(action: str, metadata: Sequence[Metadata]) -> Sequence[Metadata]:
+    """Every content lies within its receptacle's bounds (the reported bounding box, else
+    `CONTENT_REACH`): contents travel with a receptacle that moves, as in AI2-THOR."""
+    if not metadata:
+        return metadata
+    objects = {o.get("objectId"): o for o in metadata[0]["objects"]}
+    for receptacle in objects.values():
+        for content_id in receptacle.get("receptacleObjectIds") or []:
+            content = objects.get(content_id)
+            if content is not None and not _within(content, receptacle):
+                raise ConformanceError(
+                    f"after {action}: {content_id} lies {_distance(content, receptacle):.2f} m "
+                    f"from {receptacle['objectId']}, which lists it among its contents"
+                )
+    return metadata
+
+
+def _within(content: Mapping[str, Any], receptacle: Mapping[str, Any]) -> bool:
+    point, centre = content["position"], receptacle["position"]
+    box = receptacle.get("axisAlignedBoundingBox") or {}
+    if box.get("center") and box.get("size"):
+        return all(abs(point[k] - box["center"][k]) <= box["size"][k] / 2 + BOX_SLACK
+                   for k in ("x", "y", "z"))
+    return (_distance(content, receptacle) <= CONTENT_REACH
+            and abs(point["y"] - centre["y"]) <= CONTENT_RISE)
+
+
+def _distance(a: Mapping[str, Any], b: Mapping[str, Any]) -> float:
+    pa, pb = a["position"], b["position"]
+    return float(((pa["x"] - pb["x"]) ** 2 + (pa["z"] - pb["z"]) ** 2) ** 0.5)
+
+
+def _check_contents_travel(ctl: Controller) -> list[Sequence[Metadata]]:
+    """Load a portable receptacle, then pick it up, carry it, drop it, put it on furniture
+    and push it: after each move its content still lies in it and within its bounds (the
+    check of every `_step`). Nothing when the scene has no portable receptacle and another
+    pickupable object, or a setup step fails (a physical backend may find no room)."""
+    objects = ctl.last_metadata()[0]["objects"]
+    carrier = next((o["objectId"] for o in objects
+                    if o.get("pickupable") and o.get("receptacle")), None)
+    content = next((o["objectId"] for o in objects if o.get("pickupable")
+                    and not o.get("receptacle") and not o.get("isSliced")), None)
+    furniture = next((o["objectId"] for o in objects if o.get("receptacle")
+                      and not o.get("pickupable") and not o.get("openable")), None)
+    if carrier is None or content is None:
+        return []
+    _empty_hands(ctl)
+    if _is_closed(ctl, carrier):
+        _step(ctl, "OpenObject", agentId=0, objectId=carrier, forceAction=True)
+    for action, target in (("PickupObject", content), ("PutObject", carrier)):
+        md = _step(ctl, action, agentId=0, objectId=target, forceAction=True,
+                   placeStationary=True)
+        if not md[0]["lastActionSuccess"]:
+            return []
+    moves: list[tuple[str, dict[str, Any]]] = [
+        ("PickupObject", {"objectId": carrier}),
+        ("TeleportFull", _far_pose(ctl)),
+        ("DropHandObject", {}),
+        ("PickupObject", {"objectId": carrier}),
+    ]
+    if furniture is not None:
+        moves.append(("PutObject", {"objectId": furniture, "placeStationary": True}))
+    moves.append(("PushObject", {"objectId": carrier, "moveMagnitude": 150.0}))
+    trace = []
+    for action, kwargs in moves:
+        md = _step(ctl, action, agentId=0, forceAction=True, **kwargs)
+        record = next(o for o in md[0]["objects"] if o["objectId"] == content)
+        _expect(carrier in (record.get("parentReceptacles") or []),
+                f"after {action} of {carrier}: {content} no longer lies in it")
+        trace.append(md)
+    return trace
+
+
+def _far_pose(ctl: Controller) -> dict[str, Any]:
+    """The reachable position furthest from agent 0, as a TeleportFull pose."""
+    here = ctl.last_metadata()[0]["agent"]["position"]
+    positions = _step(ctl, "GetReachablePositions", agentId=0)[0]["actionReturn"] or [here]
+    far = max(positions, key=lambda p: (p["x"] - here["x"]) ** 2 + (p["z"] - here["z"]) ** 2)
+    return {**far, "rotation": 0, "horizon": 0, "standing": True}
+
+
+def _empty_hands(ctl: Controller) -> None:
+    for agent in range(ctl.agent_count):
+        if ctl.last_metadata()[agent]["inventoryObjects"]:
+            _step(ctl, "DropHandObject", agentId=agent, forceAction=True)
 
 
 def _cycle(inside: Mapping[str, set[str]]) -> list[str] | None:

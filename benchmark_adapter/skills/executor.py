@@ -7,6 +7,7 @@ ToggleOn/Off and Slice are not forced and need the object in view.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 from benchmark_adapter.sim.protocol import Controller
@@ -122,6 +123,8 @@ def _push(action: str) -> Skill:
     def skill(s: NativeSession, call: SkillCall) -> SkillResult:
         oid = call.args[0]
         magnitude = float(call.args[1]) if len(call.args) > 1 else 150.0
+        if not math.isfinite(magnitude):  # refused before it reaches a native call's record
+            return s.result.fail(f"moveMagnitude must be a finite number, got {call.args[1]}")
         refusal = _checked(s, oid)
         if refusal:
             return s.result.fail(refusal)

@@ -165,6 +165,15 @@ class AllowsCycles(EmbeddedController):
         return super().step(action, agentId, **kwargs)
 
 
+class LeavesContentsBehind(EmbeddedController):
+    """A receptacle that moves leaves its contents where they lay (the bug of issue 41)."""
+
+    def step(self, action: str, agentId: int | None = None, **kwargs: Any):
+        if self.world is not None:
+            self.world.descendants = lambda obj: []
+        return super().step(action, agentId, **kwargs)
+
+
 class ReportsAnObjectInsideItself(EmbeddedController):
     """After a Pass, lists the first receptacle among its own contents."""
 
@@ -204,12 +213,19 @@ def test_broken_backends_are_caught(backend: type, message: str) -> None:
 
 
 @pytest.mark.parametrize(("backend", "message"), [
-    (AllowsCycles, "after PutObject: reading the objects failed: ContainmentError"),
+    # The cycle is caught where the world first walks it: moving the put object's contents.
+    (AllowsCycles, "after PutObject: the step raised ContainmentError"),
     (ReportsAnObjectInsideItself, "after Pass: an object lies inside itself"),
 ])
 def test_backends_that_nest_an_object_in_itself_are_caught(backend: type, message: str) -> None:
     with pytest.raises(ConformanceError, match=message):
         check_controller(lambda: backend(nesting()[0]))
+
+
+def test_a_backend_whose_receptacles_leave_their_contents_behind_is_caught() -> None:
+    with pytest.raises(ConformanceError,
+                       match=r"after PickupObject: \S+ lies \d+\.\d+ m from \S+, which lists"):
+        check_controller(lambda: LeavesContentsBehind(nesting()[0]))
 
 
 def test_conformance_error_is_an_assertion_error() -> None:

@@ -14,7 +14,15 @@ from typing import Any
 
 from benchmark_adapter.sim.embedded.affordances import affordances_of, slice_pieces
 from benchmark_adapter.sim.embedded.vision import enclosed, interactable_poses, visible
-from benchmark_adapter.sim.embedded.world import AGENT_Y, GRID, SimAgent, SimObject, World
+from benchmark_adapter.sim.embedded.world import (
+    AGENT_Y,
+    GRID,
+    SLOT_SPACING,
+    SimAgent,
+    SimObject,
+    World,
+    within_bounds,
+)
 
 MIN_HORIZON, MAX_HORIZON = -30.0, 60.0
 
@@ -49,26 +57,72 @@ def _require(flag: bool, message: str) -> None:
         raise ActionFailed(message)
 
 
+def _finite(kw: dict[str, Any], name: str, default: float) -> float:
+    """The number argument `name` (or `default`), refused unless finite: a NaN or infinite
+    magnitude, degree or coordinate must fail the action, never reach the world's state."""
+    value = float(kw.get(name, default))  # a TypeError or ValueError: invalid arguments
+    if not math.isfinite(value):
+        raise ActionFailed(f"{name} must be a finite number, got {value}")
+    return value
+
+
+def _positive(kw: dict[str, Any], name: str, default: float) -> float:
+    """A finite `name` > 0, with AI2-THOR's wording for one that is not."""
+    value = _finite(kw, name, default)
+    _require(value > 0, f"{name} must be > 0")
+    return value
+
+
+def _disabled(obj: SimObject) -> bool:
+    """A sliced source: AI2-THOR keeps it in the metadata but disables it (no colliders, not
+    visible), its pieces taking its place."""
+    return obj.is_sliced
+
+
+def _not_disabled(obj: SimObject) -> None:
+    _require(not _disabled(obj), f"{obj.id} is not interactable: it was sliced into pieces")
+
+
 def _detach(world: World, obj: SimObject) -> None:
     if obj.parent is not None:
         world.objects[obj.parent].contents.remove(obj.id)
         obj.parent = None
 
 
+def move_with_contents(world: World, obj: SimObject, x: float, y: float, z: float) -> None:
+    """Put `obj` at (x, y, z), everything that lies in it moving along: as in AI2-THOR,
+    contents travel with their receptacle, keeping their place in it."""
+    dx, dy, dz = x - obj.x, y - obj.y, z - obj.z
+    obj.x, obj.y, obj.z = x, y, z
+    if dx or dy or dz:
+        for content in world.descendants(obj):
+            content.x, content.y, content.z = content.x + dx, content.y + dy, content.z + dz
+
+
 def _attach(world: World, obj: SimObject, receptacle: SimObject) -> None:
     slot = len(receptacle.contents)
     receptacle.contents.append(obj.id)
     obj.parent = receptacle.id
-    obj.x = receptacle.x + 0.08 * (slot % 3 - 1)
-    obj.z = receptacle.z + 0.08 * (slot // 3)
-    obj.y = receptacle.y + receptacle.aff.height
+    move_with_contents(
+        world,
+        obj,
+        receptacle.x + SLOT_SPACING * (slot % 3 - 1),
+        receptacle.y + receptacle.aff.height,
+        receptacle.z + SLOT_SPACING * (slot // 3),
+    )
+
+
+def _room_left(world: World, receptacle: SimObject) -> int:
+    """Free places of `receptacle`: its capacity less what lies in it (a sliced source
+    occupies none; its pieces each occupy one)."""
+    used = sum(1 for c in receptacle.contents if not _disabled(world.objects[c]))
+    return receptacle.aff.capacity - used
 
 
 def sync_held(world: World, agent: SimAgent) -> None:
-    """Carry the held object along with the agent."""
+    """Carry the held object, and whatever lies in it, along with the agent."""
     if agent.held is not None:
-        obj = world.objects[agent.held]
-        obj.x, obj.y, obj.z = agent.x, 1.0, agent.z
+        move_with_contents(world, world.objects[agent.held], agent.x, 1.0, agent.z)
 
 
 # -- object interaction -------------------------------------------------------------------
@@ -80,6 +134,7 @@ def pickup(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         agent.held is None, "Agent hand has something in it already! Can't pick up anything else"
     )
     _require(obj.aff.pickupable, f"{obj.id} is not pickupable")
+    _not_disabled(obj)
     if obj.held_by is not None:
         raise ActionFailed(f"{obj.id} is already picked up by agent_{obj.held_by + 1}")
     _require(not enclosed(world, obj), f"{obj.id} is inside a closed receptacle")
@@ -105,7 +160,7 @@ def put(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         not world.lies_within(receptacle, held),
         f"{held.id} cannot be placed in {receptacle.id}, which lies inside {held.id}",
     )
-    if len(receptacle.contents) >= receptacle.aff.capacity:
+    if _room_left(world, receptacle) <= 0:
         raise ActionFailed("No valid positions to place object found")
     held.held_by, agent.held = None, None
     _attach(world, held, receptacle)
@@ -116,7 +171,9 @@ def drop(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
     obj = world.objects[agent.held]
     obj.held_by, agent.held = None, None
     yaw = math.radians(agent.yaw)
-    obj.x, obj.y, obj.z = agent.x + 0.3 * math.sin(yaw), 0.0, agent.z + 0.3 * math.cos(yaw)
+    move_with_contents(
+        world, obj, agent.x + 0.3 * math.sin(yaw), 0.0, agent.z + 0.3 * math.cos(yaw)
+    )
 
 
 def _set_open(is_open: bool) -> Handler:
@@ -148,6 +205,12 @@ def slice_object(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
     obj = _reachable_target(world, agent, kw)
     _require(obj.aff.sliceable, f"{obj.id} is not sliceable")
     _require(not obj.is_sliced, f"{obj.id} is already sliced")
+    # Refused rather than leaving the pieces floating in no one's hand (AI2-THOR slices
+    # what lies in the world; the executor slices only with a knife in hand).
+    _require(
+        obj.held_by is None,
+        f"{obj.id} is held by agent_{(obj.held_by or 0) + 1}: put it down before slicing it",
+    )
     obj.is_sliced = True
     piece_type, count = slice_pieces(obj.type)
     for i in range(count):
@@ -163,6 +226,9 @@ def slice_object(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         world.objects[piece.id] = piece
         if obj.parent is not None:
             world.objects[obj.parent].contents.append(piece.id)
+    # The disabled source leaves its receptacle's listing (its colliders are off); the
+    # pieces lie where it lay.
+    _detach(world, obj)
 
 
 def clean(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
@@ -193,17 +259,47 @@ def empty(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
     obj.is_filled, obj.fill_liquid = False, None
 
 
+PUSH_FORCE_PER_METRE = 1500.0  # newtons of moveMagnitude per metre pushed
+MAX_PUSH = 0.25  # metres: no push moves an object further
+
+
 def _push(sign: float) -> Handler:
     def handler(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         obj = _reachable_target(world, agent, kw)
+        force = _positive(kw, "moveMagnitude", 150.0)
         _require(obj.aff.moveable or obj.aff.pickupable, f"{obj.id} is not moveable")
-        _require(obj.held_by is None, f"{obj.id} is held and cannot be pushed")
+        _not_disabled(obj)
+        _require(world.carrier(obj) is None, f"{obj.id} is held and cannot be pushed")
+        _require(not enclosed(world, obj), f"{obj.id} is inside a closed receptacle")
         yaw = math.radians(agent.yaw)
-        step = sign * min(float(kw.get("moveMagnitude", 150.0)) / 1500.0, 0.25)
-        obj.x += step * math.sin(yaw)
-        obj.z += step * math.cos(yaw)
+        step = sign * min(force / PUSH_FORCE_PER_METRE, MAX_PUSH)
+        x, z = obj.x + step * math.sin(yaw), obj.z + step * math.cos(yaw)
+        move_with_contents(world, obj, x, obj.y, z)
+        _settle(world, obj)
 
     return handler
+
+
+def _settle(world: World, obj: SimObject) -> None:
+    """After a push: an object still over its receptacle stays in it; one pushed off lands
+    in the nearest receptacle further out that lies under it and has room (a Tomato pushed
+    off a Plate, onto the CounterTop the Plate stands on), else on the floor."""
+    if obj.parent is None:
+        return
+    parent = world.objects[obj.parent]
+    if within_bounds(obj, parent):
+        return
+    outer = world.ancestors(obj)[1:]
+    _detach(world, obj)
+    for receptacle in outer:
+        lands = receptacle.y + receptacle.aff.height
+        probe = SimObject(obj.id, obj.type, obj.x, lands, obj.z, obj.aff)
+        if within_bounds(probe, receptacle) and _room_left(world, receptacle) > 0:
+            receptacle.contents.append(obj.id)
+            obj.parent = receptacle.id
+            move_with_contents(world, obj, obj.x, lands, obj.z)
+            return
+    move_with_contents(world, obj, obj.x, 0.0, obj.z)
 
 
 def break_object(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
@@ -229,17 +325,19 @@ def _stand(world: World, agent: SimAgent, x: float, z: float) -> None:
 
 def teleport(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
     _require("standing" in kw, "TeleportFull requires 'standing' (AI2-THOR 5.0)")
-    horizon = float(kw.get("horizon", agent.horizon))
+    horizon = _finite(kw, "horizon", agent.horizon)
     _require(MIN_HORIZON <= horizon <= MAX_HORIZON, f"Invalid horizon {horizon}")
     rotation = kw.get("rotation", agent.yaw)
-    yaw = float(rotation["y"] if isinstance(rotation, dict) else rotation)
-    _stand(world, agent, float(kw["x"]), float(kw["z"]))
+    yaw = _finite({"rotation": rotation["y"] if isinstance(rotation, dict) else rotation},
+                  "rotation", 0.0)
+    x, z = _finite(kw, "x", kw["x"]), _finite(kw, "z", kw["z"])  # both required
+    _stand(world, agent, x, z)
     agent.yaw, agent.horizon, agent.standing = yaw % 360.0, horizon, bool(kw["standing"])
 
 
 def _move(offset: float) -> Handler:
     def handler(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
-        magnitude = float(kw.get("moveMagnitude", GRID))
+        magnitude = _positive(kw, "moveMagnitude", GRID)
         yaw = math.radians(agent.yaw + offset)
         _stand(
             world,
@@ -253,14 +351,14 @@ def _move(offset: float) -> Handler:
 
 def _rotate(sign: float) -> Handler:
     def handler(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
-        agent.yaw = (agent.yaw + sign * float(kw.get("degrees", 90.0))) % 360.0
+        agent.yaw = (agent.yaw + sign * _finite(kw, "degrees", 90.0)) % 360.0
 
     return handler
 
 
 def _look(sign: float) -> Handler:
     def handler(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
-        horizon = agent.horizon + sign * float(kw.get("degrees", 30.0))
+        horizon = agent.horizon + sign * _finite(kw, "degrees", 30.0)
         _require(
             MIN_HORIZON <= horizon <= MAX_HORIZON,
             f"can't look {'down' if sign > 0 else 'up'} beyond {horizon - sign * 30:g} degrees",

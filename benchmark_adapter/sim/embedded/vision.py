@@ -59,17 +59,27 @@ def enclosed(world: World, obj: SimObject) -> bool:
 
 
 def visible(world: World, agent: SimAgent, obj: SimObject) -> bool:
-    """AI2-THOR's `visible` flag for one agent."""
+    """AI2-THOR's `visible` flag for one agent. What is in a hand (held, or lying in the
+    held receptacle) is visible to that hand's agent only; a sliced source, disabled, to
+    no one."""
     if obj.held_by is not None:
         return obj.held_by == agent.index
+    if obj.is_sliced:
+        return False
+    if obj.parent is None:  # most objects, on every visibility test: keep it cheap
+        return in_view(agent.x, agent.z, agent.yaw, agent.horizon, obj,
+                       world.visibility_distance)
     if enclosed(world, obj):
         return False
+    carrier = world.carrier(obj)
+    if carrier is not None:
+        return carrier == agent.index
     return in_view(agent.x, agent.z, agent.yaw, agent.horizon, obj, world.visibility_distance)
 
 
 def interactable_poses(world: World, obj: SimObject) -> list[dict]:
     """Standing poses on walkable cells from which the object is visible (ignores agents)."""
-    if enclosed(world, obj) or obj.held_by is not None:
+    if enclosed(world, obj) or obj.is_sliced or world.carrier(obj) is not None:
         return []
     # The poses are shared, read-only: callers must not mutate them.
     return _compute_poses(

@@ -19,6 +19,12 @@ GRID = 0.25
 AGENT_Y = 0.9  # AI2-THOR's agent position height
 CAMERA_HEIGHT = 1.5763  # standing camera height above the floor
 AGENT_RADIUS = 0.2  # two agents collide when closer than twice this
+# Metres: no scene is near this large, so a coordinate beyond it is off every floor (and the
+# grid arithmetic on it cannot overflow).
+MAX_COORDINATE = 1e4
+# Put slots lie 0.08 m apart around a receptacle's position, three to a row (`_attach`); a
+# content lies within its receptacle's slots plus this margin (metres, horizontally).
+SLOT_SPACING, CONTENT_MARGIN = 0.08, 0.12
 
 
 @dataclass
@@ -93,6 +99,8 @@ class World:
 
     def walkable(self, x: float, z: float) -> bool:
         """Whether an agent may stand at (x, z)."""
+        if not (abs(x) <= MAX_COORDINATE and abs(z) <= MAX_COORDINATE):  # NaN too
+            return False
         cx, cz = self.cell_of(x, z)
         on_grid = abs(cx * GRID - x) < 1e-6 and abs(cz * GRID - z) < 1e-6
         return on_grid and (cx, cz) in self.floor
@@ -120,10 +128,32 @@ class World:
         """Whether `obj` is `outer` or lies inside it, directly or transitively."""
         return obj.id == outer.id or any(p.id == outer.id for p in self.ancestors(obj))
 
+    def descendants(self, obj: SimObject) -> list[SimObject]:
+        """Everything that lies in `obj`, at any depth (bounded like `ancestors`)."""
+        out: list[SimObject] = []
+        pending = list(obj.contents)
+        while pending:
+            content = self.objects[pending.pop()]
+            out.append(content)
+            if len(out) > len(self.objects):
+                raise ContainmentError(f"containment cycle below {obj.id}")
+            pending.extend(content.contents)
+        return out
+
+    def carrier(self, obj: SimObject) -> int | None:
+        """The agent whose hand holds `obj` or a receptacle it lies in (None if nobody):
+        in AI2-THOR a picked-up receptacle's contents travel in the hand with it."""
+        if obj.held_by is not None or obj.parent is None:
+            return obj.held_by
+        return next((p.held_by for p in self.ancestors(obj) if p.held_by is not None), None)
+
     def check_containment(self) -> None:
         """Raise `ContainmentError` unless containment is a forest whose links agree both
-        ways (`parent` and `contents`) and held objects lie in nothing."""
+        ways (`parent` and `contents`), held objects lie in nothing, each content lies
+        within its receptacle's bounds and every position is finite."""
         for obj in self.objects.values():
+            if not all(math.isfinite(v) for v in (obj.x, obj.y, obj.z)):
+                raise ContainmentError(f"{obj.id} has a non-finite position")
             if obj.parent is not None:
                 parent = self.objects.get(obj.parent)
                 if parent is None or obj.id not in parent.contents:
@@ -141,6 +171,13 @@ class World:
                         f"{obj.id} lists {content_id}, whose parent is not {obj.id}"
                     )
             self.ancestors(obj)
+        for obj in self.objects.values():  # a forest now: where its contents lie
+            parent = self.objects[obj.parent] if obj.parent is not None else None
+            if parent is not None and not within_bounds(obj, parent):
+                raise ContainmentError(
+                    f"{obj.id} lies {math.hypot(obj.x - parent.x, obj.z - parent.z):.2f} m "
+                    f"from {parent.id}, which contains it"
+                )
 
     def blocking_agent(self, x: float, z: float, ignore: int) -> SimAgent | None:
         """Another agent whose body would overlap an agent standing at (x, z)."""
@@ -148,6 +185,23 @@ class World:
             if other.index != ignore and math.hypot(other.x - x, other.z - z) < 2 * AGENT_RADIUS:
                 return other
         return None
+
+
+def content_reach(receptacle: SimObject) -> float:
+    """How far (horizontally) from a receptacle's position its contents may lie: its
+    furthest put slot plus a margin, or its footprint if wider (a Plate 0.2 m, a CounterTop
+    0.53 m, a Bed 0.8 m)."""
+    rows = (max(receptacle.aff.capacity, 1) - 1) // 3
+    return max(SLOT_SPACING * math.hypot(1, rows) + CONTENT_MARGIN, receptacle.aff.footprint)
+
+
+def within_bounds(content: SimObject, receptacle: SimObject, slack: float = 1e-6) -> bool:
+    """Whether `content` lies where a content of `receptacle` can: within `content_reach`
+    of it horizontally, between its base and its top."""
+    reach = content_reach(receptacle) + slack
+    top = receptacle.y + receptacle.aff.height
+    return (math.hypot(content.x - receptacle.x, content.z - receptacle.z) <= reach
+            and receptacle.y - slack <= content.y <= top + slack)
 
 
 def _loop(obj: SimObject, chain: list[SimObject]) -> str:
