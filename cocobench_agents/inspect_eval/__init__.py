@@ -8,6 +8,10 @@ task) and ``cocobench import-inspect`` import the package: ``import cocobench_ag
 loads Inspect.
 """
 
-from .task import cocobench
+from .offline import use_bundled_tokenizer
+
+use_bundled_tokenizer()  # before Inspect counts a token: the docs' first command runs offline
+
+from .task import cocobench  # noqa: E402 - after the tokenizer's folder is set
 
 __all__ = ["cocobench"]

@@ -39,7 +39,6 @@ NOT_UNDER_INSPECT = {
     "episode_memory": "Inspect runs the samples in its own process, with no worker to stop",
     "stall_timeout": "Inspect runs the samples in its own process, with no worker to stop",
     "ray_address": _IN_PROCESS, "ray_wait": _IN_PROCESS, "thor_gpus_per_worker": _IN_PROCESS,
-    "preflight": "the task calls no preflight", "no_preflight": "the task calls no preflight",
     "baselines": "run the reference rows with `cocobench run --baselines`",
 }
 #: How our messages name a setting: its option, then its field.

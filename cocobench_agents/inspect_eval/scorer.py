@@ -45,6 +45,19 @@ def cocobench_scorer() -> Any:
     return score
 
 
+def findable_by_its_logged_name() -> None:
+    """Register the scorer also under the name Inspect's log records for it.
+
+    A log names a scorer without its package (``cocobench_scorer``), and ``inspect score
+    LOG`` looks that name up as it stands, where a package's scorer is registered under
+    ``cocobench_agents/cocobench_scorer``: without this, Inspect asks for ``--scorer``.
+    ``inspect score`` loads the packages' entry points (this package among them) before it
+    looks the name up."""
+    from inspect_ai._util.registry import _registry, registry_key
+
+    _registry.setdefault(registry_key("scorer", cocobench_scorer.__name__), cocobench_scorer)
+
+
 def score_values(line: dict[str, Any]) -> dict[str, float]:
     """A result line's named scores (NaN for a value it has none of)."""
     values = {name: _number(line.get(field)) for name, field in SCORES.items()}

@@ -7,16 +7,22 @@ from typing import Any
 
 from inspect_ai import Task, task
 from inspect_ai.dataset import MemoryDataset, Sample
+from inspect_ai.model import GenerateConfig
 
 from cocobench_agents.engine.errors import is_user_error
 from cocobench_agents.engine.resolve import canonical, resolve
 from cocobench_agents.harness.episodes import PlannedEpisode
 
 from .params import TaskParameterError, task_request
-from .scorer import cocobench_scorer
+from .preflight import PreflightFailed, check_eval_models
+from .scorer import cocobench_scorer, findable_by_its_logged_name
 from .solver import cocobench_solver
 
+findable_by_its_logged_name()  # `inspect score LOG` as Inspect users type it
+
 REQUEST = "cocobench_request"  # the task metadata's key of the request
+#: The task's version (Inspect's `Task.version`; as in the inspect_evals register entry).
+VERSION = "1-A"
 
 
 @task
@@ -52,15 +58,30 @@ def cocobench(task: str | list[str] | None = None, suite: str | list[str] | None
         raise TaskParameterError(f"CoCoBench task parameters: {exc}") from None
     if not run.episodes:
         raise TaskParameterError("CoCoBench task parameters: they select no instance")
+    if request.preflight:
+        try:
+            check_eval_models(request.model_settings, run.episodes)
+        except PreflightFailed as exc:
+            raise TaskParameterError(str(exc)) from None
     planned = {sample_id(p): p for p in run.episodes}
     return Task(
         dataset=MemoryDataset([_sample(key, p) for key, p in planned.items()],
                               name="cocobench"),
         solver=cocobench_solver(planned, request.model_settings),
         scorer=cocobench_scorer(),
+        config=bounded_retries(request.model_settings),
+        version=VERSION,
         # what `cocobench import-inspect` makes the log's run folder from
         metadata={REQUEST: request.model_dump(mode="json", exclude={"out", "models"})},
     )
+
+
+def bounded_retries(settings: Any) -> GenerateConfig:
+    """`cocobench run`'s retry policy as the task's defaults (Inspect's own retry a failing
+    call without end): its retries, and its first attempt's timeout for each attempt.
+    ``--max-retries``, ``--attempt-timeout`` and ``--timeout`` override them."""
+    return GenerateConfig(max_retries=settings.max_retries,
+                          attempt_timeout=int(settings.timeout_s))
 
 
 def sample_id(planned: PlannedEpisode) -> str:

@@ -21,6 +21,7 @@ from .errors import ModelConfigError
 from .failures import is_context_window_message, status_code, status_kind
 from .protocol import EpisodeHalt, ModelReply, ModelRequest
 from .remote import Completion, RemoteClient
+from .secrets import redact
 
 #: The deciding agent of the call in flight (a contextvar: `send` does not get the request).
 _AGENT: contextvars.ContextVar[str | None] = contextvars.ContextVar("cocobench_agent",
@@ -63,9 +64,11 @@ class InspectClient(RemoteClient):
 
     transport = "inspect"
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(self, *args: Any, inspect_model: Any = None, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.cache = None  # Inspect's own cache applies, not ours
+        # a given Inspect `Model` instead of the eval's (the pre-flight's own instance)
+        self.inspect_model = inspect_model
 
     async def attempt(self, request: ModelRequest, number: int) -> ModelReply:
         token = _AGENT.set(request.agent)
@@ -78,18 +81,15 @@ class InspectClient(RemoteClient):
                    timeout_s: float) -> Completion:
         from inspect_ai.model import GenerateConfig
 
-        model = inspect_model(_AGENT.get())
-        extra_body = params.get("extra_body")
-        config = GenerateConfig(
-            temperature=params.get("temperature"), max_tokens=params.get("max_tokens"),
-            seed=params.get("seed"), extra_body=extra_body)
-        output = await model.generate(chat_messages(messages), config=config)
+        model = self.inspect_model or inspect_model(_AGENT.get())
+        output = await model.generate(chat_messages(messages),
+                                      config=GenerateConfig(**generate_config(params)))
         if output.error:  # a refusal or content filter the provider reported as such
             raise InspectOutputError(output.error)
         usage = output.usage
         return Completion(
             text=output.completion or "",
-            prompt_tokens=usage.input_tokens if usage else 0,
+            prompt_tokens=prompt_tokens(usage),
             completion_tokens=usage.output_tokens if usage else 0,
             cost_usd=(usage.total_cost or 0.0) if usage else 0.0)
 
@@ -100,14 +100,35 @@ class InspectClient(RemoteClient):
             if status == 400 and is_context_window_message(str(exc)):
                 return "context_window", False
             return status_kind(status)[0], False
-        if isinstance(exc, TimeoutError):
+        name = type(exc).__name__
+        if isinstance(exc, TimeoutError) or "Timeout" in name:
             return "timeout", False
+        if "Connection" in name or "Connect" in name:  # no answer: what LiteLLM retries
+            return "transient", False
         return "other", False
 
     def _error(self, exc: BaseException, latency_s: float, spent: dict[str, Any]) -> Any:
+        exc = last_failure(exc)
         if _is_limit(exc):  # not a model failure: Inspect ends the sample at its limit
             raise InspectLimitReached(exc) from exc
-        return super()._error(exc, latency_s, spent)
+        error = super()._error(exc, latency_s, spent)
+        cause = exc.__cause__
+        if cause is not None and str(cause) and str(cause) not in error.message:
+            # the provider's words often lie one level down ("Connection error." ← refused)
+            error.message = redact(f"{error.message} ({type(cause).__name__}: {cause})",
+                                   self.settings.secrets())
+        return error
+
+
+def last_failure(exc: BaseException) -> BaseException:
+    """The exception behind Inspect's retries: the last attempt's, where they ran out (a
+    tenacity `RetryError` says nothing of the provider's words)."""
+    while type(exc).__name__ == "RetryError" and getattr(exc, "last_attempt", None):
+        inner = exc.last_attempt.exception()
+        if inner is None:
+            break
+        exc = inner
+    return exc
 
 
 class InspectLimitReached(EpisodeHalt):
@@ -127,6 +148,44 @@ def _is_limit(exc: BaseException) -> bool:
     from inspect_ai.util import LimitExceededError
 
     return isinstance(exc, LimitExceededError)
+
+
+#: Our call parameters that are fields of Inspect's `GenerateConfig` under the same name,
+#: which every Inspect provider sends (in its API's terms). Any other goes in `extra_body`,
+#: sent as a field of the request's body as the other transports send `--extra`: `top_k`
+#: among them, which Inspect's OpenAI providers would drop and local servers take.
+_CONFIG_FIELDS = frozenset({
+    "temperature", "max_tokens", "seed", "top_p", "frequency_penalty", "presence_penalty",
+    "logit_bias", "logprobs", "top_logprobs", "extra_headers", "reasoning_effort"})
+#: OpenAI's names of `GenerateConfig` fields named otherwise.
+_CONFIG_ALIASES = {"stop": "stop_seqs", "max_completion_tokens": "max_tokens"}
+
+
+def generate_config(params: dict[str, Any]) -> dict[str, Any]:
+    """Our call parameters (`RemoteClient.call_params`: the sampling settings, `--extra`, the
+    grammar) as Inspect `GenerateConfig` fields: every one is sent, as by `cocobench run`."""
+    config: dict[str, Any] = {}
+    extra_body = dict(params.get("extra_body") or {})
+    for name, value in params.items():
+        field = _CONFIG_ALIASES.get(name, name)
+        if field in _CONFIG_FIELDS:
+            config[field] = [value] if field == "stop_seqs" and isinstance(value, str) \
+                else value
+        elif name != "extra_body":
+            extra_body[name] = value
+    if extra_body:
+        config["extra_body"] = extra_body
+    return config
+
+
+def prompt_tokens(usage: Any) -> int:
+    """The prompt's tokens as the provider counted them, a cached prefix included (Inspect
+    counts the tokens read from or written to a provider's prompt cache apart from
+    `input_tokens`; LiteLLM's and our counts include them)."""
+    if usage is None:
+        return 0
+    return (usage.input_tokens + (usage.input_tokens_cache_read or 0)
+            + (usage.input_tokens_cache_write or 0))
 
 
 def chat_messages(messages: list[dict[str, Any]]) -> list[Any]:

@@ -20,9 +20,13 @@ from .builtin import is_builtin
 from .pool import ModelPool
 from .protocol import MenuOption, ModelError, ModelRequest
 from .secrets import redact
+from .settings import ModelSettings
 
 PROBE_PROMPT = "This is a connection check. Reply exactly:\nREASON: ok\nACTION: 1"
 PROBE_MENU = (MenuOption(1, "Wait", "Wait()"),)  # for --grammar, which builds on the menu
+#: The probe's own completion cap (the run's when smaller): any answer passes, and a small
+#: local model left uncapped generated for minutes inside the pre-flight.
+PROBE_MAX_TOKENS = 16
 
 
 class PreflightError(ValueError):
@@ -47,20 +51,31 @@ def preflight(pool: ModelPool, models: Iterable[str], obs_modes: Iterable[str]) 
 
 
 async def _probe_all(pool: ModelPool, checks: list[tuple[str, bool]]) -> list[str | None]:
-    probes = ModelPool(pool.settings.model_copy(update={"cache_dir": None}))
+    probes = ModelPool(probe_settings(pool.settings))
     try:
         return await asyncio.gather(*(_probe(probes, model, images) for model, images in checks))
     finally:
         await probes.aclose()
 
 
+def probe_settings(settings: ModelSettings) -> ModelSettings:
+    """The run's settings as the probe sends them: no cache (a cached answer proves nothing
+    about the endpoint), at most `PROBE_MAX_TOKENS` completion tokens."""
+    cap = min(settings.max_tokens or PROBE_MAX_TOKENS, PROBE_MAX_TOKENS)
+    return settings.model_copy(update={"cache_dir": None, "max_tokens": cap})
+
+
+def probe_request(images: bool) -> ModelRequest:
+    """The probe: the connection-check prompt, with a tiny image when `images`."""
+    return ModelRequest(prompt=PROBE_PROMPT, images=(tiny_png(),) if images else (),
+                        menu=PROBE_MENU)
+
+
 async def _probe(pool: ModelPool, model: str, images: bool) -> str | None:
     """None when `model` answered, else what went wrong."""
     client = pool.client(model, episode="preflight", agent=None)
-    request = ModelRequest(prompt=PROBE_PROMPT, images=(tiny_png(),) if images else (),
-                           menu=PROBE_MENU)
     try:
-        await client.complete(request)
+        await client.complete(probe_request(images))
     except ModelError as error:
         if error.kind == "empty":  # the provider answered: what matters here is that it can
             return None

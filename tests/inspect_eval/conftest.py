@@ -1,13 +1,12 @@
 """Shared pieces of the Inspect task's tests: real task configs, Inspect's mockllm fed a fixed
-list of replies, and the environment a subprocess `inspect eval` needs offline."""
+list of replies, and the environment of a subprocess `inspect eval`."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
+import shutil
+import sys
 from pathlib import Path
-
-import pytest
 
 from tests.paths import SHARED_DATA
 
@@ -25,26 +24,10 @@ def config_paths() -> list[str]:
     return [str(TASKS / name) for name in CONFIGS]
 
 
-def tokenizer_cache() -> str | None:
-    """A folder holding tiktoken's o200k_base encoding, which mockllm counts tokens with: the
-    copy LiteLLM (a dependency) ships, so that nothing is downloaded."""
-    spec = importlib.util.find_spec("litellm")
-    if spec is None or spec.origin is None:
-        return None
-    folder = Path(spec.origin).parent / "litellm_core_utils" / "tokenizers"
-    return str(folder) if folder.is_dir() else None
-
-
-@pytest.fixture(autouse=True)
-def offline_tokenizer(monkeypatch: pytest.MonkeyPatch) -> None:
-    cache = tokenizer_cache()
-    if cache is not None:
-        monkeypatch.setenv("TIKTOKEN_CACHE_DIR", cache)
-
-
 def subprocess_env(*, checkout_first: bool = True) -> dict[str, str]:
-    """This environment with the offline tokenizer and, with `checkout_first`, this checkout
-    first on the path (the subprocess imports the tree under test).
+    """This environment with, with `checkout_first`, this checkout first on the path (the
+    subprocess imports the tree under test). The task finds its tokenizer offline itself
+    (`inspect_eval.offline`): no tokenizer folder is set here.
 
     `inspect eval` runs without it: Inspect names a package's tasks (``cocobench_agents/…``)
     only when the distribution it finds first was installed (or installed editable), and a
@@ -56,10 +39,14 @@ def subprocess_env(*, checkout_first: bool = True) -> dict[str, str]:
         root = str(Path(__file__).resolve().parents[2])
         env["PYTHONPATH"] = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH"))
                                             if p)
-    cache = tokenizer_cache()
-    if cache is not None:
-        env["TIKTOKEN_CACHE_DIR"] = cache
     return env
+
+
+def inspect_command() -> list[str]:
+    """Inspect's command as installed beside this Python (``inspect``), else the same command
+    through the interpreter (a venv made with --system-site-packages has no script of it)."""
+    script = shutil.which("inspect", path=str(Path(sys.executable).parent))
+    return [script] if script else [sys.executable, "-m", "inspect_ai"]
 
 
 def scripted_mockllm(replies: list[str]):

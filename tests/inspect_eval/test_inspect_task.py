@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from .conftest import REPLIES, config_paths, scripted_mockllm, subprocess_env
+from .conftest import REPLIES, config_paths, inspect_command, scripted_mockllm, subprocess_env
 
 pytestmark = pytest.mark.needs_inspect
 
@@ -200,13 +199,6 @@ def _import(log: str, out: Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
         [sys.executable, "-m", "cocobench_agents.cli", "import-inspect", log, "--out",
          str(out)], capture_output=True, text=True, env=subprocess_env(), check=False)
-
-
-def inspect_command() -> list[str]:
-    """Inspect's command as installed beside this Python (``inspect``), else the same command
-    through the interpreter (a venv made with --system-site-packages has no script of it)."""
-    script = shutil.which("inspect", path=str(Path(sys.executable).parent))
-    return [script] if script else [sys.executable, "-m", "inspect_ai"]
 
 
 def test_the_task_runs_from_the_command_line(tmp_path: Path):

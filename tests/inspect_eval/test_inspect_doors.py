@@ -1,0 +1,98 @@
+"""One meaning at both doors, against one OpenAI-compatible server on 127.0.0.1: every key of
+`-T extra` reaches the server as `cocobench run --extra` sends it (``top_k`` too, which
+Inspect's OpenAI providers would drop), and a decision's prompt tokens count the provider's
+cached prefix at both doors (Inspect counts it apart)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.faults.test_model_faults import Provider
+from tests.models.fake_openai import Behaviour, completion_body
+
+from .conftest import config_paths, subprocess_env
+
+pytestmark = [pytest.mark.needs_inspect, pytest.mark.slow]
+
+EXTRA = {"top_k": 20, "top_p": 0.9, "min_p": 0.05, "repeat_penalty": 1.1,
+         "stop": ["\n\nQ:"]}
+#: Keys of a request body that say what was asked, not how it was sampled.
+ASKED = {"messages", "model", "stream", "stream_options", "n", "max_tokens", "temperature",
+         "seed", "tools", "tool_choice"}
+PROMPT, CACHED, COMPLETION = 900, 600, 4
+DONE = "REASON: nothing left to do\nACTION: DONE"
+
+
+def cached_reply() -> Behaviour:
+    """DONE, with usage of which most of the prompt came from the provider's cache."""
+    body = completion_body(DONE, prompt_tokens=PROMPT, completion_tokens=COMPLETION)
+    body["usage"]["prompt_tokens_details"] = {"cached_tokens": CACHED}
+    return Behaviour(200, body)
+
+
+@pytest.fixture
+def provider():
+    with Provider() as server:
+        server.program(default=cached_reply())
+        yield server
+
+
+def _decisions(server: Provider) -> list[dict[str, Any]]:
+    """The bodies of the decisions' requests (not the pre-flight's connection check)."""
+    return [body for body in server.requests
+            if "connection check" not in json.dumps(body["messages"])]
+
+
+def _sampling(body: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in body.items() if k not in ASKED}
+
+
+def test_extra_keys_and_cached_tokens_mean_the_same_at_both_doors(
+        tmp_path: Path, provider: Provider, monkeypatch):
+    from inspect_ai import eval as inspect_eval
+    from inspect_ai.log import read_eval_log
+
+    from cocobench_agents.inspect_eval.solver import TRAJECTORY
+    from cocobench_agents.inspect_eval.task import cocobench
+
+    task = config_paths()[0]
+    done = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "run", "--task", task, "--model",
+         "openai/healthy", "--conditions", "C0_blind", "--max-steps", "2", "--transport",
+         "http", "--api-base", provider.base_url, "--api-key-env", "FAKE_API_KEY",
+         "--extra", json.dumps(EXTRA), "--temperature", "0", "--out", str(tmp_path / "run")],
+        capture_output=True, text=True, check=False, timeout=300,
+        env={**subprocess_env(), "FAKE_API_KEY": "sk-fake-doors-0001"})
+    assert done.returncode == 0, done.stderr[-3000:]
+    ours = _decisions(provider)
+    [line] = [json.loads(x) for x in (tmp_path / "run" / "results.jsonl").read_text()
+              .splitlines()]
+    trajectory = json.loads((tmp_path / "run" / line["trajectory"]).read_text())
+
+    provider.program()
+    monkeypatch.setenv("FAKE_BASE_URL", provider.base_url)
+    monkeypatch.setenv("FAKE_API_KEY", "sk-fake-doors-0001")
+    [log] = inspect_eval(cocobench, task_args={"task": task, "conditions": "C0_blind",
+                                               "max_steps": 2, "extra": EXTRA,
+                                               "temperature": 0},
+                         model="openai-api/fake/healthy", log_dir=str(tmp_path / "logs"),
+                         display="none")
+    [sample] = read_eval_log(log.location).samples
+    assert sample.error is None, sample.error
+    theirs = _decisions(provider)
+
+    # every key of --extra / -T extra reached the server, with the same value
+    assert ours and len(ours) == len(theirs)
+    for a, b in zip(ours, theirs):
+        assert _sampling(a) == _sampling(b) == EXTRA, (a, b)
+    # the cached prefix counted in the prompt's tokens, decision by decision
+    decisions = sample.store[TRAJECTORY]["planner_decisions"]
+    assert [d["prompt_tokens"] for d in decisions] == \
+        [d["prompt_tokens"] for d in trajectory["planner_decisions"]] == [PROMPT] * len(ours)
+    assert [d["completion_tokens"] for d in decisions] == [COMPLETION] * len(ours)
