@@ -35,7 +35,13 @@ def view_command(runs: tuple[Path, ...], port: int, no_browser: bool,
     if export_dir is not None:
         from cocobench_agents.viewer.export import export
 
-        count = export(Pages.create(catalog, live=False), export_dir)
+        pages = Pages.create(catalog, live=False)
+        count = export(pages, export_dir)
+        if pages.unshown:
+            first = next(iter(pages.unshown.values()))
+            click.echo(f"cocobench view: {len(pages.unshown)} episode(s) exported with their "
+                       f"result line only, their trajectory cannot be shown (first: {first})",
+                       err=True)
         click.echo(f"wrote {count} pages ({len(catalog.episodes())} episodes) to "
                    f"{export_dir}; open {export_dir / 'index.html'} or serve the folder")
         return

@@ -75,6 +75,9 @@ class Pages:
     # episodes re-renders only what changed.
     _rows: dict[tuple[int, int], dict[str, Any]] = field(default_factory=dict)
     _summary: tuple[int, tuple[tuple[str, ...], list[list[Any]]]] = (-1, (HEADERS, []))
+    #: Why an episode's page shows only its result line, by page (the trajectory cannot be
+    #: drawn): `--export` says how many.
+    unshown: dict[str, str] = field(default_factory=dict)
 
     @classmethod
     def create(cls, catalog: Catalog, *, live: bool) -> Pages:
@@ -114,6 +117,7 @@ class Pages:
                 return self._episode_views(episode, run, traj)
             except Exception as exc:  # noqa: BLE001 - any field of a run folder may be odd
                 problem = f"{run.trajectory_name(episode)}: {describe(exc)}"
+                self.unshown[episode.path] = f"{run.path}/{problem}"
         return self._render("episode.html", episode.path, episode=episode, run=run, traj=None,
                             problem=problem, **_outcome(episode.record, None))
 
