@@ -25,7 +25,12 @@ from cocobench_agents.engine.request import RunRequest, iter_fields, nest, value
 from cocobench_agents.models.secrets import REDACTED, redact_named, redact_obj, redact_url
 from cocobench_agents.runfolder.errors import RunFolderError
 from cocobench_agents.runfolder.folder import RunFolder
-from cocobench_agents.runfolder.upgrade import RECORD_VERSION, is_current, version_1_settings
+from cocobench_agents.runfolder.upgrade import (
+    RECORD_VERSION,
+    is_current,
+    unknown_version,
+    version_1_settings,
+)
 from cocobench_agents.setting_kinds import flag_of
 from cocobench_agents.version import __version__
 
@@ -106,6 +111,9 @@ def request_from_record(record: Mapping[str, Any], where: Path) -> RunRequest:
     """The request recorded in `run.json` (at `where`, for messages), of any version."""
     if not isinstance(record.get("plan"), Mapping):
         raise RunFolderError(f"{where}: not a run record (no plan)")
+    unknown = unknown_version(record)
+    if unknown is not None:
+        raise RunFolderError(f"{where}: {unknown}")
     data = record.get("request") if is_current(record) else upgrade(record)
     try:
         return RunRequest.model_validate(data)

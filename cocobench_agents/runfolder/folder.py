@@ -16,6 +16,7 @@ import dataclasses
 import gzip
 import json
 import os
+import re
 import tempfile
 import zlib
 from collections.abc import Iterator, Mapping
@@ -41,6 +42,8 @@ RESULTS = "results.jsonl"
 RUN_FILE = "run.json"
 PROMPTS_FILE = "prompts.json.gz"
 SHOWN_PROBLEMS = 10  # problems of a results file named one by one; the rest are counted
+#: The temporary files of this folder's atomic writes (`tempfile.mkstemp`'s random part).
+_TEMPORARY = re.compile(r"\.(trajectory\.json|prompts\.json\.gz|run\.json)\.[^/]+\.tmp")
 
 
 @dataclass
@@ -131,8 +134,27 @@ class RunFolder:
         if cut:
             self.warnings.append(f"{self.results_path}: removed an incomplete last line "
                                  f"({cut} bytes, from a run stopped in mid-write)")
+        removed = self._remove_temporaries()
+        if removed:
+            self.warnings.append(f"{self.path}: removed {removed} temporary file"
+                                 f"{'s' if removed != 1 else ''} of writes a stopped run "
+                                 "left unfinished")
         self.warnings += self.scan_results(check_trajectories=True).problems
         return record
+
+    def _remove_temporaries(self) -> int:
+        """Remove the temporary files of atomic writes that a killed writer left (a
+        `.trajectory.json.*.tmp`, …): under the lock no write is under way. Only files of
+        that name, in the run folder's own tree (links are not followed); their count."""
+        removed = 0
+        for folder, _, names in os.walk(self.path):
+            for name in names:
+                path = Path(folder, name)
+                if _TEMPORARY.fullmatch(name) and not path.is_symlink():
+                    with contextlib.suppress(FileNotFoundError):
+                        path.unlink()
+                        removed += 1
+        return removed
 
     def run_record(self) -> dict[str, Any]:
         """`run.json` (`RunFolderError` naming it if it is not a JSON object)."""
@@ -311,13 +333,40 @@ class RunFolder:
             if row.get("infra_error") or not relative:
                 continue
             try:
-                present = self.inside(relative).is_file()
-            except (RunFolderError, OSError):  # outside the folder, or not a usable path
-                present = False
-            if not present:
+                problem = _trajectory_problem(self.inside(relative))
+            except RunFolderError:  # outside the folder
+                problem = "missing"
+            if problem is not None:
                 scan.missing.append(key)
-                scan.problems.append(f"{self.path / relative}: missing; episode {key.name()} "
-                                     "counts as not done")
+                scan.problems.append(f"{self.path / relative}: {problem}; episode "
+                                     f"{key.name()} counts as not done")
+
+
+def _trajectory_problem(path: Path) -> str | None:
+    """Why the trajectory file at `path` does not make its episode done (missing, empty, cut
+    short), or None. A whole file written by `write_json_atomic` ends with its top-level
+    object's brace alone on the last line (indented JSON: an inner brace is indented), so
+    reading its end tells; a file that ends otherwise with a brace is parsed whole."""
+    try:
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            if size == 0:
+                return "empty"
+            f.seek(max(0, size - 64))
+            tail = f.read().rstrip()
+            if tail.endswith(b"\n}"):
+                return None
+            if not tail.endswith(b"}"):
+                return f"cut short ({size} bytes, not a whole JSON document)"
+            f.seek(0)
+            document = orjson.loads(f.read())
+    except (FileNotFoundError, NotADirectoryError, IsADirectoryError):
+        return "missing"
+    except OSError as exc:
+        return f"unreadable ({exc.strerror or exc})"
+    except ValueError:  # orjson's error
+        return f"cut short ({size} bytes, not a whole JSON document)"
+    return None if isinstance(document, dict) else "not a trajectory (a JSON object)"
 
 
 def _episode_of_line(line: Mapping[str, Any]) -> EpisodeKey:

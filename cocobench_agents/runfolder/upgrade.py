@@ -10,6 +10,7 @@ engine nests them into its request (`engine.records.upgrade`).
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping
 from typing import Any
 
@@ -19,6 +20,23 @@ RECORD_VERSION = 2
 #: Options of the earlier command line whose request field has another name.
 _RENAMED = {"planner": "planners", "obs_mode": "obs_modes", "prompt_suite": "prompt_suites",
             "task_id": "task_ids", "timeout": "timeout_s", "extra_json": "extra_params"}
+
+
+#: The layouts this code reads (a version 1 record may not say its version).
+KNOWN_VERSIONS = (None, 1, RECORD_VERSION)
+
+
+def unknown_version(record: Mapping[str, Any]) -> str | None:
+    """Why `record`'s layout cannot be read (a record version this code does not know, as
+    one written by a later version), or None."""
+    version = record.get("record_version")
+    if version in KNOWN_VERSIONS and not isinstance(version, bool):
+        return None
+    known = ", ".join(str(v) for v in KNOWN_VERSIONS if v is not None)
+    writer = record.get("cocobench_agents")
+    by = f" (written by cocobench-agents {writer})" if isinstance(writer, str) else ""
+    return (f"record_version {json.dumps(version)[:40]} is not one this version of "
+            f"cocobench-agents reads ({known}){by}: use the version that wrote it")
 
 
 def is_current(record: Mapping[str, Any]) -> bool:
