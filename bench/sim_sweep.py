@@ -3,7 +3,8 @@ on every instance of cocobench-full and every shared config, several seeds each,
 invariant of `benchmark_adapter.sim.embedded.invariants` checked after each step and each
 episode replayed byte for byte. Prints the figures and every breach; exits 1 on a breach.
 
-Usage: python bench/sim_sweep.py [--seeds N] [--steps N] [--processes N] [--limit N]
+Usage: python bench/sim_sweep.py [--seeds N] [--first-seed N] [--steps N] [--processes N]
+                                [--limit N]
 """
 
 from __future__ import annotations
@@ -46,12 +47,14 @@ def sweep_one(job: tuple[TaskConfig, int, int]) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--processes", type=int, default=1)
     parser.add_argument("--limit", type=int, default=None, help="only the first N instances")
     args = parser.parse_args()
     configs = instances(args.limit)
-    jobs = [(c, seed, args.steps) for c in configs for seed in range(args.seeds)]
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    jobs = [(c, seed, args.steps) for c in configs for seed in seeds]
     start = time.perf_counter()
     if args.processes > 1:
         with ProcessPoolExecutor(args.processes) as pool:
@@ -66,7 +69,8 @@ def main() -> int:
         for kind, count in row["kinds"].items():
             kinds[kind] = kinds.get(kind, 0) + count
     steps = sum(kinds.values())
-    print(f"instances {len(configs)} × seeds {args.seeds} = episodes {len(rows)}, "
+    print(f"instances {len(configs)} × seeds {seeds.start}-{seeds.stop - 1} = episodes "
+          f"{len(rows)}, "
           f"{args.steps} steps each")
     print(f"steps {steps:,} (menu {kinds.get('menu', 0):,}, off-menu skill "
           f"{kinds.get('skill', 0):,}, native {kinds.get('native', 0):,}); refused native "
