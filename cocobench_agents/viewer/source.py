@@ -75,6 +75,9 @@ class RunSource:
                 data = f.read()
         except FileNotFoundError:
             return next_seq
+        except OSError as exc:  # a folder, unreadable: what was read stays shown
+            raise ViewerError(f"{self.path / RESULTS}: cannot read it "
+                              f"({exc.strerror or exc})") from None
         end = data.rfind(b"\n")
         if end < 0:
             return next_seq  # nothing complete yet (a torn or empty tail)
@@ -164,13 +167,22 @@ class Catalog:
         self.runs = [open_run(index, Path(p)) for index, p in enumerate(paths)]
         self._lock = threading.Lock()
         self._seq = 0
-        self.refresh()
+        self.refresh(strict=True)
 
-    def refresh(self) -> None:
-        """Read what the runs appended since the last look (only the new bytes)."""
+    def refresh(self, *, strict: bool = False) -> None:
+        """Read what the runs appended since the last look (only the new bytes). A
+        `results.jsonl` that cannot be read is a `ViewerError` when the viewer starts
+        (`strict`); later, its run keeps what was read and names the file among its
+        problems."""
         with self._lock:
             for run in self.runs:
-                self._seq = run.read_new(self._seq)
+                try:
+                    self._seq = run.read_new(self._seq)
+                except ViewerError as exc:
+                    if strict:
+                        raise
+                    if str(exc) not in run.problems:
+                        run.problems.append(str(exc))
 
     @property
     def seq(self) -> int:

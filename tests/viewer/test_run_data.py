@@ -278,3 +278,20 @@ def _dumps(document: dict[str, Any]) -> str:
         marker = '"step_index"'
         at = text.index(marker)
         return text[:at] + '"state": ' + "[" * depth + "0" + "]" * depth + ", " + text[at:]
+
+
+def test_a_results_file_that_cannot_be_read_is_one_line_or_kept(
+        run_copy: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """`results.jsonl` a folder: `view` stops in one line naming it (exit 2); a live viewer
+    whose file becomes one keeps showing what it read (it printed a traceback)."""
+    results_file = run_copy / "results.jsonl"
+    with ViewerServer(Pages.create(Catalog([run_copy]), live=True), 0) as server:
+        results_file.rename(tmp_path / "results.jsonl")
+        results_file.mkdir()
+        answer = send(server.port, "/")
+        assert answer.status == 200
+        assert len(listed(answer.raw.partition(b"\r\n\r\n")[2].decode())) == 8
+        assert send(server.port, "/api/rows").status == 200
+    assert main(["view", str(run_copy), "--export", str(tmp_path / "site")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"cocobench: error: {results_file}: cannot read it (Is a directory)\n"
