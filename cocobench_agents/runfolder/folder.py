@@ -117,6 +117,11 @@ class RunFolder:
         except OSError as exc:
             raise RunFolderError(f"cannot write {self.path / RUN_FILE}: "
                                  f"{exc.strerror or exc}") from None
+        except (TypeError, ValueError) as exc:  # text no UTF-8 file holds: a path's bytes
+            shown = os.fsencode(self.path / RUN_FILE).decode("utf-8", "backslashreplace")
+            raise RunFolderError(f"cannot write {shown}: the run's request holds text that "
+                                 "is not valid UTF-8 (a path of bytes that are not UTF-8?): "
+                                 f"{gist(exc)}") from None
 
     def open_for_resume(self) -> dict[str, Any] | None:
         """The recorded run (None if the folder holds none yet). A torn last result line

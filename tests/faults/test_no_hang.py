@@ -242,3 +242,15 @@ def test_a_task_config_with_a_lone_surrogate_is_refused_naming_file_and_field(tm
     # Text written as a surrogate pair's escapes is one valid character, and loads.
     task.write_text(text.replace('"Agent-1"', '"Agent-\\ud83d\\ude00"', 1), encoding="utf-8")
     assert main(["validate", str(task)]) == 0
+
+
+def test_an_out_path_that_is_not_utf8_is_refused_in_one_line(tmp_path, capsys):
+    from cocobench_agents.cli import main
+
+    out = tmp_path / "run\udcff"  # as Python reads a path's byte 0xff from the command line
+    assert main(["run", "--suite", "demo", "--limit", "1", "--model", "greedy", "--obs",
+                 "blind", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert (f"cannot write {tmp_path}/run\\xff/run.json: the run's request holds text "
+            "that is not valid UTF-8") in err
+    assert "Traceback" not in err
