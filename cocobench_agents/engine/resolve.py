@@ -107,6 +107,9 @@ def resolve(request: RunRequest, notify: Callable[[str], None]) -> ResolvedRun:
     tasks = select_tasks(tasks, selection.eval_set, only_cell=selection.only_cell,
                          only_family=selection.only_family, only_dim=selection.only_dim,
                          task_ids=selection.task_ids, limit=selection.limit)
+    unknown = unknown_seats(request.agent_models, tasks)
+    if unknown:
+        raise RequestError(f"--agent-model {unknown}")
     arms = suite_arms(suites)
     episodes = plan_episodes(tasks, models, conditions, request.epochs, arms=arms,
                              agent_models=request.agent_models, backend=request.backend,
@@ -114,6 +117,18 @@ def resolve(request: RunRequest, notify: Callable[[str], None]) -> ResolvedRun:
                              stable_ids=request.stable_ids)
     return ResolvedRun(request, tasks, models, conditions, planner_arms, suites, arms,
                        episodes)
+
+
+def unknown_seats(names: Any, tasks: list[TaskConfig]) -> str | None:
+    """What is wrong with the seats `names` (an agent-model mapping's keys, Inspect's model
+    roles) when one names no agent of the instances `tasks` (a misspelt seat would be
+    ignored: its agent would decide with the team's model); None when every one does."""
+    agents = sorted({agent for task in tasks for agent in task.agent_ids})
+    unknown = [name for name in names if name not in agents]
+    if not unknown:
+        return None
+    return (f"{', '.join(unknown)}: no agent of the selected instances is named so (their "
+            f"agents: {', '.join(agents)})")
 
 
 def with_baselines(models: list[str], conditions: list[Condition]

@@ -21,14 +21,16 @@ import concurrent.futures
 from collections.abc import Iterable
 from typing import Any
 
+from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import IMAGE
+from cocobench_agents.engine.resolve import unknown_seats
 from cocobench_agents.graphs import NO_MODEL, planner_spec
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.models.inspect_client import InspectClient
 from cocobench_agents.models.preflight import probe_request, probe_settings
 from cocobench_agents.models.protocol import ModelError
 from cocobench_agents.models.secrets import redact
-from cocobench_agents.models.settings import ModelSettings
+from cocobench_agents.models.settings import ModelSettings, unset_sampling_notice
 
 #: Inspect's providers that call nothing remote: nothing to check.
 LOCAL_PROVIDERS = ("mockllm/", "none/")
@@ -60,6 +62,32 @@ def check_eval_models(settings: ModelSettings, planned: Iterable[PlannedEpisode]
     if failures:
         raise PreflightFailed(f"pre-flight call failed (no sample was started; {SKIP}): "
                               + " | ".join(failures))
+
+
+def check_roles(tasks: list[TaskConfig]) -> None:
+    """`PreflightFailed` for an Inspect model role of the running eval that names no agent of
+    `tasks` (a misspelt ``--model-role agnet_2=…`` would be ignored: that agent would decide
+    with the eval's model), as `cocobench run` refuses such an ``--agent-model``."""
+    from inspect_ai.model._model import model_roles
+
+    unknown = unknown_seats(model_roles(), tasks)
+    if unknown:
+        raise PreflightFailed(f"--model-role {unknown}")
+
+
+def sampling_notice(settings: ModelSettings, planned: Iterable[PlannedEpisode]) -> str | None:
+    """`cocobench run`'s warning for the remote models of the running eval whose calls carry
+    no temperature (neither ``-T temperature`` nor Inspect's ``--temperature`` sets one): the
+    provider samples at its own default and the eval is not reproducible. None otherwise."""
+    from inspect_ai.model._generate_config import active_generate_config
+    from inspect_ai.model._model import active_model
+
+    team = active_model()
+    if team is None or active_generate_config().temperature is not None:
+        return None
+    models = [str(model) for model, _ in _checks(team, list(planned))]
+    notice = unset_sampling_notice(settings, models)
+    return notice.replace("--temperature ", "-T temperature=") if notice else None
 
 
 def _checks(team: Any, planned: list[PlannedEpisode]) -> list[tuple[Any, bool]]:

@@ -3,6 +3,7 @@ Inspect's epochs are the episodes' epochs."""
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from inspect_ai import Task, task
@@ -14,12 +15,13 @@ from cocobench_agents.engine.resolve import canonical, resolve
 from cocobench_agents.harness.episodes import PlannedEpisode
 
 from .params import TaskParameterError, task_request
-from .preflight import PreflightFailed, check_eval_models
+from .preflight import PreflightFailed, check_eval_models, check_roles, sampling_notice
 from .scorer import cocobench_scorer, findable_by_its_logged_name
 from .solver import cocobench_solver
 
 findable_by_its_logged_name()  # `inspect score LOG` as Inspect users type it
 
+logger = logging.getLogger(__name__)
 REQUEST = "cocobench_request"  # the task metadata's key of the request
 #: The task's version (Inspect's `Task.version`; as in the inspect_evals register entry).
 VERSION = "1-A"
@@ -58,11 +60,15 @@ def cocobench(task: str | list[str] | None = None, suite: str | list[str] | None
         raise TaskParameterError(f"CoCoBench task parameters: {exc}") from None
     if not run.episodes:
         raise TaskParameterError("CoCoBench task parameters: they select no instance")
-    if request.preflight:
-        try:
+    try:
+        check_roles(run.tasks)
+        if request.preflight:
             check_eval_models(request.model_settings, run.episodes)
-        except PreflightFailed as exc:
-            raise TaskParameterError(str(exc)) from None
+    except PreflightFailed as exc:
+        raise TaskParameterError(str(exc)) from None
+    notice = sampling_notice(request.model_settings, run.episodes)
+    if notice:
+        logger.warning(notice)
     planned = {sample_id(p): p for p in run.episodes}
     return Task(
         dataset=MemoryDataset([_sample(key, p) for key, p in planned.items()],

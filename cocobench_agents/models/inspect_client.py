@@ -14,6 +14,7 @@ the decision becomes a ``backend_error`` and the episode an infrastructure failu
 from __future__ import annotations
 
 import contextvars
+import dataclasses
 import sys
 from typing import Any
 
@@ -26,6 +27,9 @@ from .secrets import redact
 #: The deciding agent of the call in flight (a contextvar: `send` does not get the request).
 _AGENT: contextvars.ContextVar[str | None] = contextvars.ContextVar("cocobench_agent",
                                                                    default=None)
+#: Whether Inspect served the call in flight from its response cache (set by `send`).
+_FROM_CACHE: contextvars.ContextVar[bool] = contextvars.ContextVar("cocobench_from_cache",
+                                                                  default=False)
 _OUTSIDE = ("the inspect transport decides with the model of a running Inspect eval: run "
             "`inspect eval cocobench_agents/cocobench --model PROVIDER/MODEL` (docs/inspect.md)")
 
@@ -71,11 +75,15 @@ class InspectClient(RemoteClient):
         self.inspect_model = inspect_model
 
     async def attempt(self, request: ModelRequest, number: int) -> ModelReply:
-        token = _AGENT.set(request.agent)
+        token, from_cache = _AGENT.set(request.agent), _FROM_CACHE.set(False)
         try:
-            return await super().attempt(request, number)
+            reply = await super().attempt(request, number)
+            # a reply of Inspect's cache is a cached reply, as one of ours: billed 0, its
+            # first cost kept as saved
+            return dataclasses.replace(reply, cached=True) if _FROM_CACHE.get() else reply
         finally:
             _AGENT.reset(token)
+            _FROM_CACHE.reset(from_cache)
 
     async def send(self, messages: list[dict[str, Any]], params: dict[str, Any],
                    timeout_s: float) -> Completion:
@@ -86,6 +94,7 @@ class InspectClient(RemoteClient):
                                       config=GenerateConfig(**generate_config(params)))
         if output.error:  # a refusal or content filter the provider reported as such
             raise InspectOutputError(output.error)
+        _FROM_CACHE.set(served_from_cache(output))
         usage = output.usage
         return Completion(
             text=output.completion or "",
@@ -176,6 +185,18 @@ def generate_config(params: dict[str, Any]) -> dict[str, Any]:
     if extra_body:
         config["extra_body"] = extra_body
     return config
+
+
+def served_from_cache(output: Any) -> bool:
+    """Whether Inspect answered with `output` from its response cache: the latest model event
+    of the sample's transcript that carries it (a copy of it) says so (``cache="read"``)."""
+    from inspect_ai.log._transcript import transcript
+
+    for event in reversed(transcript().events):
+        if getattr(event, "event", None) == "model" and (event.output is output
+                                                         or event.output == output):
+            return event.cache == "read"
+    return False
 
 
 def prompt_tokens(usage: Any) -> int:

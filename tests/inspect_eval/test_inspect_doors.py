@@ -96,3 +96,94 @@ def test_extra_keys_and_cached_tokens_mean_the_same_at_both_doors(
     assert [d["prompt_tokens"] for d in decisions] == \
         [d["prompt_tokens"] for d in trajectory["planner_decisions"]] == [PROMPT] * len(ours)
     assert [d["completion_tokens"] for d in decisions] == [COMPLETION] * len(ours)
+
+
+def test_a_reply_of_inspects_cache_is_a_cached_reply(tmp_path: Path, provider: Provider,
+                                                       monkeypatch):
+    """Inspect's ``--cache``: the second eval's decisions come from Inspect's cache, and are
+    recorded as our cache's are: ``cached``, billed 0 tokens, what they cost kept as saved."""
+    from inspect_ai import eval as inspect_eval
+    from inspect_ai.log import read_eval_log
+
+    from cocobench_agents.inspect_eval.solver import TRAJECTORY
+    from cocobench_agents.inspect_eval.task import cocobench
+
+    monkeypatch.setenv("FAKE_BASE_URL", provider.base_url)
+    monkeypatch.setenv("FAKE_API_KEY", "sk-fake-doors-0001")
+    monkeypatch.setenv("INSPECT_CACHE_DIR", str(tmp_path / "cache"))
+    args = {"task": config_paths()[0], "conditions": "C0_blind", "max_steps": 2,
+            "temperature": 0}
+
+    def decisions() -> list[dict[str, Any]]:
+        [log] = inspect_eval(cocobench, task_args=args, model="openai-api/fake/healthy",
+                             log_dir=str(tmp_path / "logs"), display="none", cache=True)
+        [sample] = read_eval_log(log.location).samples
+        assert sample.error is None, sample.error
+        return sample.store[TRAJECTORY]["planner_decisions"]
+
+    first = decisions()
+    called = len(_decisions(provider))
+    assert called == len(first) > 0 and not any(d["cached"] for d in first)
+    assert all(d["prompt_tokens"] == PROMPT for d in first)
+    provider.program()
+    again = decisions()
+    assert not _decisions(provider)  # every decision from Inspect's cache
+    assert [d["raw_output"] for d in again] == [d["raw_output"] for d in first]
+    assert all(d["cached"] and d["prompt_tokens"] == d["completion_tokens"] == 0
+               and d["cost_usd"] == 0 for d in again)
+    assert [d["saved"]["prompt_tokens"] for d in again] == [PROMPT] * len(again)
+
+
+def test_a_misspelt_seat_is_refused_at_both_doors(tmp_path: Path):
+    from inspect_ai import eval as inspect_eval
+
+    from cocobench_agents.inspect_eval.params import TaskParameterError
+    from cocobench_agents.inspect_eval.task import cocobench
+
+    task = config_paths()[0]  # agents agent_1 and agent_2
+    with pytest.raises(TaskParameterError) as refused:
+        inspect_eval(cocobench, task_args={"task": task, "conditions": "D1_blind"},
+                     model="mockllm/model", model_roles={"agnet_2": "mockllm/model"},
+                     log_dir=str(tmp_path / "logs"), display="none")
+    assert str(refused.value) == ("--model-role agnet_2: no agent of the selected instances "
+                                  "is named so (their agents: agent_1, agent_2)")
+    assert not (tmp_path / "logs").exists() or not list((tmp_path / "logs").iterdir())
+    done = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "run", "--task", task, "--model",
+         "greedy", "--agent-model", "agnet_2=random", "--conditions", "D1_blind",
+         "--out", str(tmp_path / "run")],
+        capture_output=True, text=True, check=False, timeout=300, env=subprocess_env())
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "--agent-model agnet_2: no agent of the selected instances is named so (their " \
+           "agents: agent_1, agent_2)" in done.stderr
+    assert not (tmp_path / "run").exists()
+
+
+def test_an_unsent_temperature_is_warned_at_both_doors(tmp_path: Path, provider: Provider,
+                                                        monkeypatch, caplog):
+    from inspect_ai import eval as inspect_eval
+
+    from cocobench_agents.inspect_eval.task import cocobench
+
+    monkeypatch.setenv("FAKE_BASE_URL", provider.base_url)
+    monkeypatch.setenv("FAKE_API_KEY", "sk-fake-doors-0001")
+    args = {"task": config_paths()[0], "conditions": "C0_blind", "max_steps": 1}
+    said = {}
+    for temperature in (None, 0):
+        caplog.clear()
+        inspect_eval(cocobench, task_args={**args, "temperature": temperature},
+                     model="openai-api/fake/healthy", log_dir=str(tmp_path / "logs"),
+                     display="none")
+        said[temperature] = caplog.text
+    assert "sampling is unset for openai-api/fake/healthy" in said[None], said
+    assert "not reproducible; -T temperature=0 fixes it" in said[None]
+    assert "sampling is unset" not in said[0]
+    done = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "run", "--task", config_paths()[0],
+         "--model", "openai/healthy", "--conditions", "C0_blind", "--max-steps", "1",
+         "--api-base", provider.base_url, "--api-key-env", "FAKE_API_KEY",
+         "--out", str(tmp_path / "run")],
+        capture_output=True, text=True, check=False, timeout=300,
+        env={**subprocess_env(), "FAKE_API_KEY": "sk-fake-doors-0001"})
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "sampling is unset for openai/healthy" in done.stdout + done.stderr
