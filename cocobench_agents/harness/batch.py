@@ -197,6 +197,9 @@ def infra_error_record(planned: PlannedEpisode, error: str, elapsed: float) -> d
     """The result line of an episode that could not run (scored as a failure, as the
     reference does for runner_failed / timeout)."""
     spec = planned.spec
+    # An exception's message may hold text no UTF-8 file holds (a lone surrogate): escaped,
+    # so that the line can be written.
+    error = error.encode("utf-8", "backslashreplace").decode("utf-8")
     return infra_error_line(planned.key, error, unrun_result(
         spec.config, planner=spec.planner, obs_mode=spec.obs_mode, backend=spec.backend,
         prompt_suite=spec.prompt_suite, elapsed_s=round(elapsed, 3)))

@@ -159,6 +159,23 @@ def test_a_worker_reports_an_episode_whose_result_it_cannot_make(tmp_path, monke
     assert all(r["infra_error"] == "KeyError: 'nowhere'" for r in records)
 
 
+@pytest.mark.parametrize(("executor", "settings"), EXECUTORS[:2])
+def test_an_exception_whose_message_no_utf8_file_holds_is_recorded(tmp_path, monkeypatch,
+                                                                   deadline, executor,
+                                                                   settings):
+    from benchmark_adapter.episode import Episode
+
+    def step(*args: Any, **kwargs: Any) -> Any:
+        raise RuntimeError("bad \ud800 text")
+
+    monkeypatch.setattr(Episode, "step", step)
+    folder = RunFolder(tmp_path / "run")
+    folder.create({"name": "surrogate"})
+    executor.run(plan(1), folder, ModelPool(), settings)
+    (record,) = folder.results()
+    assert "RuntimeError: bad \\ud800 text" in record["infra_error"]
+
+
 # -- the whole command, in every executor -------------------------------------------------------
 
 CLI_EXECUTORS = [pytest.param(["--workers", "1"], id="1-worker"),
