@@ -51,9 +51,11 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
             document, result = await run_episode(spec, ModelPool(settings),
                                                  controller=spec.controller())
         except PlannerNodeError as exc:
-            state.store.set(TRAJECTORY, exc.document)  # scored as it stands at a limit
-            if isinstance(exc.__cause__, InspectLimitReached):
-                raise exc.__cause__.limit from None  # Inspect ends the sample at its limit
+            if isinstance(exc.__cause__, InspectLimitReached):  # scored as it stands
+                limit = exc.__cause__.limit
+                state.store.set(TRAJECTORY, limit_ended(exc.document, limit))
+                raise limit from None  # Inspect ends the sample at its limit
+            state.store.set(TRAJECTORY, exc.document)
             raise EpisodeInfraError(str(exc)) from None
         line = result_line(result, key)
         state.store.set(TRAJECTORY, document)
@@ -65,6 +67,26 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
         return state
 
     return solve
+
+
+#: The terminal reason of an episode an Inspect usage limit ended.
+USAGE_LIMIT = "usage_limit"
+
+
+def limit_ended(document: dict[str, Any], limit: Any) -> dict[str, Any]:
+    """The trajectory of an episode Inspect's usage `limit` (`LimitExceededError`) ended: its
+    stop decision says so (``usage_limit``, the limit's type and message), not that a planner
+    node failed."""
+    label = {"status": USAGE_LIMIT, "terminal_reason": USAGE_LIMIT,
+             "limit": getattr(limit, "type", None), "error": str(limit)}
+    decisions = list(document.get("planner_decisions") or [])
+    if decisions and decisions[-1].get("status") == "planner_error":
+        decisions[-1] = {**decisions[-1], **label}
+    items = list(document.get("trajectory") or [])  # the stop item the scores read
+    if items and items[-1].get("label") == "policy_stop" and \
+            (items[-1].get("policy_decision") or {}).get("status") == "planner_error":
+        items[-1] = {**items[-1], "policy_decision": {**items[-1]["policy_decision"], **label}}
+    return {**document, "planner_decisions": decisions, "trajectory": items}
 
 
 def seat_models(episode: PlannedEpisode) -> dict[str, str]:

@@ -3,6 +3,7 @@ Inspect's epochs are the episodes' epochs."""
 
 from __future__ import annotations
 
+import functools
 import logging
 from typing import Any
 
@@ -13,6 +14,7 @@ from inspect_ai.model import GenerateConfig
 from cocobench_agents.engine.errors import is_user_error
 from cocobench_agents.engine.resolve import canonical, resolve
 from cocobench_agents.harness.episodes import PlannedEpisode
+from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
 
 from .params import TaskParameterError, task_request
 from .preflight import PreflightFailed, check_eval_models, check_roles, sampling_notice
@@ -91,9 +93,19 @@ def bounded_retries(settings: Any) -> GenerateConfig:
 
 
 def sample_id(planned: PlannedEpisode) -> str:
-    """A sample's id: its condition, arm and instance (``C0_image/A_D1__FloorPlan1__seed0``)."""
+    """A sample's id: its condition, prompt suite and instance
+    (``C0_image/A_D1__FloorPlan1__seed0``; ``C0_image/mine/A_D1__…`` under the suite
+    ``mine``). The default suite adds no part, alone or beside other arms, so that a
+    sample keeps its id when arms are added (its log can be retried or compared)."""
     key = planned.key
-    return "/".join(part for part in (key.condition, key.arm, key.task_id) if part)
+    return "/".join(part for part in (key.condition, _suite_part(planned.spec.prompt_suite),
+                                      key.task_id) if part)
+
+
+@functools.cache
+def _suite_part(spec: str) -> str:
+    """The id part of the prompt suite `spec`: its label (the arm's), none for the default."""
+    return "" if spec == DEFAULT_SUITE else load_prompt_suite(spec).label
 
 
 def _sample(sid: str, planned: PlannedEpisode) -> Sample:

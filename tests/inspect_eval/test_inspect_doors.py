@@ -187,3 +187,18 @@ def test_an_unsent_temperature_is_warned_at_both_doors(tmp_path: Path, provider:
         env={**subprocess_env(), "FAKE_API_KEY": "sk-fake-doors-0001"})
     assert done.returncode == 0, done.stderr[-2000:]
     assert "sampling is unset for openai/healthy" in done.stdout + done.stderr
+
+
+def test_a_samples_id_is_stable_when_arms_are_added():
+    from cocobench_agents.inspect_eval.task import cocobench
+
+    def ids(prompt_suite: str) -> set[str]:
+        task = cocobench(task=config_paths()[0], conditions="C0_blind",
+                         prompt_suite=prompt_suite)
+        return {str(sample.id) for sample in task.dataset}
+
+    alone, variant = ids("cocobench-v1"), ids("cocobench-v1+no-hint")
+    both = ids("cocobench-v1,cocobench-v1+no-hint")
+    assert alone == {"C0_blind/A_D1__FloorPlan1__seed0"}
+    assert variant == {"C0_blind/cocobench-v1+no-hint/A_D1__FloorPlan1__seed0"}
+    assert both == alone | variant  # adding an arm kept every id

@@ -355,6 +355,8 @@ def test_an_inspect_usage_limit_ends_the_sample_scored_as_it_stands(tmp_path: Pa
         assert sample.limit.type == "token"
         steps = sample.scores["cocobench_scorer"].value["steps"]
         assert 0 < steps < 12  # the budget is 22: the limit stopped it
+        # labelled as a usage limit, not as a planner's failure
+        assert sample.scores["cocobench_scorer"].metadata["terminal_reason"] == "usage_limit"
     # imported, each sample is a normal result line, scored as Inspect scored it
     out = tmp_path / "imported"
     done = _import(log.location, out)
