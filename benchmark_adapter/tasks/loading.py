@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import sys
 import warnings
 from collections.abc import Iterable
 from importlib import resources
@@ -100,14 +101,17 @@ def read_json(path: str | Path) -> Any:
         raise TaskConfigError(
             path, f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start})"
         ) from None
+    too_long: list[str] = []
     try:
-        data = json.loads(text)
+        data = json.loads(text, parse_int=lambda literal: _integer(literal, too_long))
     except json.JSONDecodeError as exc:
         raise from_json_error(path, exc) from exc
     except RecursionError:  # deeper than Python's own limit
         raise _too_deep(path) from None
     if _depth_exceeds(data, MAX_JSON_DEPTH):
         raise _too_deep(path)
+    if too_long:
+        _refuse_long_integers(path, data)
     if _SURROGATE_ESCAPE.search(text):
         _refuse_lone_surrogates(path, data)
     return data
@@ -138,6 +142,37 @@ def _check_text(path: str | Path, text: str, where: tuple[str, ...]) -> None:
         raise TaskConfigError(path, f"not valid UTF-8 text: a lone surrogate ({lone}, from a "
                                     "JSON escape) that no run folder can record",
                               ".".join(where) or None) from None
+
+
+class _LongInteger(str):
+    """An integer literal longer than Python converts (`sys.get_int_max_str_digits`), kept
+    as its text until `_refuse_long_integers` names its field."""
+
+
+def _integer(literal: str, too_long: list[str]) -> int | str:
+    """`json.loads`'s `parse_int`: the integer, or a `_LongInteger` (noted in `too_long`)
+    where converting it would raise deep inside the JSON decoder."""
+    limit = sys.get_int_max_str_digits()
+    if limit and len(literal.lstrip("-")) > limit:
+        too_long.append(literal)
+        return _LongInteger(literal)
+    return int(literal)
+
+
+def _refuse_long_integers(path: str | Path, data: Any) -> None:
+    """Refuse the first `_LongInteger` of `data`, naming its field."""
+    stack: list[tuple[Any, tuple[str, ...]]] = [(data, ())]
+    while stack:
+        value, where = stack.pop()
+        if isinstance(value, _LongInteger):
+            raise TaskConfigError(path, f"an integer of {len(value.lstrip('-'))} digits "
+                                        f"(Python converts at most "
+                                        f"{sys.get_int_max_str_digits()})",
+                                  ".".join(where) or None)
+        if isinstance(value, dict):
+            stack.extend((child, (*where, str(key))) for key, child in value.items())
+        elif isinstance(value, list):
+            stack.extend((child, (*where, str(i))) for i, child in enumerate(value))
 
 
 def _too_deep(path: str | Path) -> TaskConfigError:

@@ -18,7 +18,7 @@ from cocobench_agents.cli.play_page import play_page
 from cocobench_agents.cli.progress import RunView
 from cocobench_agents.cli.request_options import ENV_PREFIX, request_options
 from cocobench_agents.cli.tables import table
-from cocobench_agents.engine.config import command_request
+from cocobench_agents.engine.config import ConfigError, command_request
 from cocobench_agents.engine.errors import RunInterrupted, RunStopped
 from cocobench_agents.engine.request import RunRequest, nest
 from cocobench_agents.harness.runaway import runaway_causes
@@ -94,7 +94,26 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
 def _request(options: dict[str, Any], config_file: Path | None, resume: bool) -> RunRequest:
     """The request: the flags and variables given, over the config file, over the recorded
     run (with --resume), over the defaults."""
-    return command_request(nest(_given(options)), config_file=config_file, resume=resume)
+    try:
+        return command_request(nest(_given(options)), config_file=config_file, resume=resume)
+    except ConfigError as exc:
+        raise ConfigError(_naming_variables(str(exc))) from None
+
+
+def _naming_variables(message: str) -> str:
+    """`message` with each problem of a setting given by its ``COCOBENCH_RUN_*`` variable
+    naming the variable first (``COCOBENCH_RUN_TEMPERATURE (--temperature, …): …``): the
+    flag alone would send the user looking for an option they never typed."""
+    context = click.get_current_context()
+    lines = message.split("\n")
+    for param in context.command.params:
+        if (context.get_parameter_source(param.name or "") != ParameterSource.ENVIRONMENT
+                or not isinstance(param.envvar, str)):
+            continue
+        for flag in (opt for opt in param.opts if opt.startswith("--")):
+            lines = [f"{param.envvar} ({flag}, {line.removeprefix(f'{flag} (')}"
+                     if line.startswith(f"{flag} (") else line for line in lines]
+    return "\n".join(lines)
 
 
 def _given(options: dict[str, Any]) -> dict[str, Any]:

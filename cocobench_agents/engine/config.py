@@ -28,6 +28,9 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 CONFIG_SUFFIXES = (".yaml", ".yml", ".toml")
+#: Deeper config files are refused when read: every later reader (pydantic-settings' deep
+#: merge, the record) recurses per level, and a run's settings nest a few levels.
+MAX_CONFIG_DEPTH = 64
 
 
 class ConfigError(ValueError):
@@ -98,8 +101,12 @@ def command_request(given: Mapping[str, Any] | None = None, *,
     base = None
     if resume and out is not None:
         from cocobench_agents.engine.records import recorded_request
+        from cocobench_agents.engine.resume import check_recorded_code
 
         base = recorded_request(Path(out))
+        if base is not None:  # planners that are code run only when named again
+            chosen = read_config_file(config_file) if config_file is not None else {}
+            check_recorded_code(base, {**chosen, **given})
     return layered_request(given, config_file=config_file, base=base)
 
 
@@ -139,12 +146,36 @@ def read_config_file(path: Path) -> dict[str, Any]:
         values = _parse(path, text)
     except ValueError as exc:  # yaml.YAMLError and tomllib.TOMLDecodeError are ValueErrors
         raise ConfigError(f"{path}: not {_format(path)}: {_one_line(exc)}") from None
+    except RecursionError:  # both parsers recurse per level of nesting
+        raise _too_deep(path) from None
+    if _nested_deeper(values, MAX_CONFIG_DEPTH):
+        raise _too_deep(path)
     if values is None:
         return {}  # an empty file sets nothing
     if not isinstance(values, dict):
         raise ConfigError(f"{path}: expected a mapping of settings at the top level, "
                           f"found {type(values).__name__}")
     return values
+
+
+def _too_deep(path: Path) -> ConfigError:
+    return ConfigError(f"{path}: nested more than {MAX_CONFIG_DEPTH} levels deep (a run's "
+                       "settings nest a few levels)")
+
+
+def _nested_deeper(value: Any, limit: int) -> bool:
+    """Whether mappings and lists nest more than `limit` levels in `value` (iterative, each
+    node once: YAML aliases share nodes)."""
+    stack, seen = [(value, 1)], set()
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, (dict, list)) and id(item) not in seen:
+            if depth > limit:
+                return True
+            seen.add(id(item))
+            children = item.values() if isinstance(item, dict) else item
+            stack.extend((child, depth + 1) for child in children)
+    return False
 
 
 def _parse(path: Path, text: str) -> Any:

@@ -40,9 +40,10 @@ THOR_STALL_S = 1800.0  # `limits.stall_timeout` on AI2-THOR: Unity's start block
 
 class Settings(BaseModel):
     """A frozen group of settings that refuses unknown keys (a typo in a config file is an
-    error, not a silently ignored setting)."""
+    error, not a silently ignored setting) and numbers that are not finite (``nan`` and
+    ``inf`` fail every comparison a limit makes)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
 
 def _one_or_more(value: Any) -> Any:
@@ -131,7 +132,8 @@ class RunRequest(Settings):
     Every model × condition × prompt-suite arm × instance × epoch is one episode.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid", protected_namespaces=())
+    model_config = ConfigDict(frozen=True, extra="forbid", protected_namespaces=(),
+                              allow_inf_nan=False)
 
     out: Path = run_setting(flag="--out", description="The run folder.")
     selection: TaskSelection = shaping(default_factory=TaskSelection,

@@ -17,7 +17,7 @@ ExecutorName = Literal["local", "ray"]
 class ExecutionSettings(BaseModel):
     """Where and how many episodes run at once. Results do not depend on these."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     executor: ExecutorName = run_setting(
         "local", flag="--executor",

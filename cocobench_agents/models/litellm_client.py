@@ -63,8 +63,8 @@ class LiteLLMClient(RemoteClient):
         if auth_headers:
             kwargs["extra_headers"] = {**(kwargs.get("extra_headers") or {}), **auth_headers}
         api_key = self.settings.call_key()
-        if api_key:
-            kwargs["api_key"] = api_key
+        if api_key:  # a key given in `extra_params` wins, as in the http transport
+            kwargs.setdefault("api_key", api_key)
         # A backstop in case a provider ignores `timeout` (a hung stream must not hang a run).
         # Generous: it also counts LiteLLM's own set-up, seconds on a first call on a busy
         # machine, which must not turn into a spurious timeout.

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import base64
 import os
 import re
 from collections.abc import Iterable, Mapping
-from urllib.parse import urlsplit, urlunsplit
+from urllib.parse import quote, unquote, urlsplit, urlunsplit
 
 #: Environment variables whose names end like this hold secrets.
 SECRET_SUFFIXES = ("_API_KEY", "_TOKEN", "_SECRET")
@@ -79,13 +80,49 @@ def named_secrets(obj: object) -> list[str]:
     return found
 
 
-def url_credentials(url: str | None) -> list[str]:
-    """The ``user:password`` of a URL (both parts), if it has any (none in a URL whose
-    credentials are already redacted)."""
+def secret_forms(value: str) -> list[str]:
+    """`value` and the forms it travels in: percent-encoded (in a URL or a query) and, for an
+    authorization value (``Basic TOKEN``, ``Bearer TOKEN``), the token alone."""
+    forms = [value, quote(value, safe="")]
+    scheme, _, credential = value.partition(" ")
+    if credential.strip() and scheme.isalpha():
+        forms.append(credential.strip())
+    return list(dict.fromkeys(forms))
+
+
+def basic_token(user: str, password: str) -> str:
+    """The HTTP Basic authorization token of `user` and `password` (RFC 7617)."""
+    return base64.b64encode(f"{user}:{password}".encode()).decode("ascii")
+
+
+def url_parts(url: str | None) -> tuple[str, str] | None:
+    """The ``user`` and ``password`` of a URL, percent-decoded (None when it has none, or
+    when its credentials are already redacted)."""
     if not url or "@" not in url or REDACTED in url:
+        return None
+    parts = urlsplit(url)
+    if not (parts.username or parts.password):
+        return None
+    return unquote(parts.username or ""), unquote(parts.password or "")
+
+
+def url_credentials(url: str | None) -> list[str]:
+    """Every form the ``user:password`` of a URL may be seen in: each part as written in the
+    URL and percent-decoded, ``user:password``, and the HTTP Basic token they are sent as
+    (base64, standard and URL-safe, with and without its padding, percent-encoded): a
+    server or proxy that echoes the Authorization header shows the token, not the password.
+    None for a URL without credentials."""
+    given = url_parts(url)
+    if given is None:
         return []
     parts = urlsplit(url)
-    return [v for v in (parts.username, parts.password) if v]
+    user, password = given
+    pair = f"{user}:{password}".encode()
+    token = basic_token(user, password)
+    plain = [v for v in (parts.username, parts.password, user, password) if v]
+    tokens = [f"{user}:{password}", token, token.rstrip("="), quote(token, safe=""),
+              base64.urlsafe_b64encode(pair).decode("ascii")]
+    return list(dict.fromkeys([*(f for v in plain for f in secret_forms(v)), *tokens]))
 
 
 def redact_url(url: str | None) -> str | None:

@@ -2,21 +2,30 @@
 
 from __future__ import annotations
 
-import base64
 import ipaddress
 import json
+import math
 import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal, get_args
-from urllib.parse import unquote, urlsplit, urlunsplit
+from urllib.parse import urlsplit, urlunsplit
 
 from pydantic import BaseModel, ConfigDict, ValidationError, field_validator
 
 from cocobench_agents.setting_kinds import flag_of, run_setting, run_variable, shaping
 
 from .builtin import is_builtin
-from .secrets import named_secrets, redact_named, redact_obj, redact_url, url_credentials
+from .secrets import (
+    basic_token,
+    named_secrets,
+    redact_named,
+    redact_obj,
+    redact_url,
+    secret_forms,
+    url_credentials,
+    url_parts,
+)
 
 #: `temperature` value meaning "as the reference": 0 for OpenAI model names starting with
 #: gpt/o1/o3/o4, not sent otherwise.
@@ -57,7 +66,9 @@ class ModelSettings(BaseModel):
     run keeps it) or only how the calls go (`setting_kinds`).
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    # Numbers must be finite: a `nan` temperature was accepted and failed every call later
+    # as a "transient" error.
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     api_base: str | None = shaping(
         None, flag="--api-base",
@@ -119,29 +130,36 @@ class ModelSettings(BaseModel):
         """``--extra`` and environment variables give the object as JSON text."""
         if isinstance(value, str):
             try:
-                value = json.loads(value) if value.strip() else {}
+                value = json.loads(value, parse_constant=_refuse_constant) \
+                    if value.strip() else {}
             except json.JSONDecodeError as exc:
                 raise ValueError(f"not JSON: {exc}") from None
+            except RecursionError:
+                raise ValueError("nested too deeply") from None
         if not isinstance(value, dict):
             raise ValueError("must be a JSON object")
+        if not _all_finite(value):
+            raise ValueError("holds a number that is not finite (NaN or Infinity)")
         return value
 
     @field_validator("temperature", mode="before")
     @classmethod
     def _temperature(cls, value: Any) -> Any:
-        """A number, ``auto`` or ``none`` (``--temperature none`` sends none; ``null`` in a
-        config file), one message for anything else."""
-        if not isinstance(value, str):
-            return value
-        if value.lower() in ("none", "null"):
-            return None
-        if value == TEMPERATURE_AUTO:
-            return value
-        try:
-            return float(value)
-        except ValueError:
-            raise ValueError(f"expected a number, {TEMPERATURE_AUTO!r} or none, "
-                             f"got {value!r}") from None
+        """A finite number, ``auto`` or ``none`` (``--temperature none`` sends none; ``null``
+        in a config file), one message for anything else."""
+        expected = f"expected a finite number, {TEMPERATURE_AUTO!r} or none"
+        if isinstance(value, str):
+            if value.lower() in ("none", "null"):
+                return None
+            if value == TEMPERATURE_AUTO:
+                return value
+            try:
+                value = float(value)
+            except ValueError:
+                raise ValueError(f"{expected}, got {value!r}") from None
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"{expected}, got {value!r}")
+        return value
 
     @field_validator("api_key_env")
     @classmethod
@@ -187,21 +205,23 @@ class ModelSettings(BaseModel):
         return LOCAL_PLACEHOLDER_KEY if is_local_url(self.api_base) else None
 
     def secrets(self) -> list[str]:
-        """Every secret these settings carry: the key, values under secret-looking names in
-        `extra_params` (``api_key``, ``Authorization`` headers, …), URL credentials."""
-        return [v for v in (self.api_key(), *named_secrets(self.extra_params),
-                            *url_credentials(self.api_base)) if v]
+        """Every secret these settings carry, in every form it may be seen in
+        (`secret_forms`, `url_credentials`): the key, values under secret-looking names in
+        `extra_params` (``api_key``, ``Authorization`` headers, …), URL credentials and the
+        HTTP Basic token they are sent as."""
+        given = [v for v in (self.api_key(), *named_secrets(self.extra_params)) if v]
+        return [*(form for value in given for form in secret_forms(value)),
+                *url_credentials(self.api_base)]
 
     def endpoint(self) -> tuple[str | None, dict[str, str]]:
         """`api_base` without ``user:password@``, and the headers those credentials become
         (HTTP Basic authorization; clients do not send URL credentials themselves)."""
-        if not url_credentials(self.api_base):
+        given = url_parts(self.api_base)
+        if given is None:
             return self.api_base, {}
         parts = urlsplit(self.api_base)
-        user, password = unquote(parts.username or ""), unquote(parts.password or "")
-        token = base64.b64encode(f"{user}:{password}".encode()).decode("ascii")
         url = urlunsplit(parts._replace(netloc=parts.netloc.rpartition("@")[2]))
-        return url, {"Authorization": f"Basic {token}"}
+        return url, {"Authorization": f"Basic {basic_token(*given)}"}
 
     def temperature_for(self, model: str) -> float | None:
         """The temperature to send for `model`, or None to send none."""
@@ -236,6 +256,25 @@ def unset_sampling_notice(settings: ModelSettings, models: Iterable[str]) -> str
     return (f"sampling is unset for {', '.join(unset)}: no temperature is sent ({why}), so "
             "the provider samples at its own default and the run is not reproducible; "
             "--temperature 0 fixes it")
+
+
+def _refuse_constant(name: str) -> Any:
+    """`json.loads`'s hook for ``NaN``, ``Infinity`` and ``-Infinity`` (not JSON numbers)."""
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
+def _all_finite(value: Any) -> bool:
+    """Whether every float in a JSON-like value is finite (iterative: any depth)."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, float) and not math.isfinite(item):
+            return False
+        if isinstance(item, dict):
+            stack.extend(item.values())
+        elif isinstance(item, (list, tuple)):
+            stack.extend(item)
+    return True
 
 
 def _json_safe(value: Any) -> Any:

@@ -139,3 +139,69 @@ def test_score_reports_unreadable_files_in_one_line_and_scores_the_rest(capsys,
         f"cocobench: error: {deep}: JSON nested too deeply to read",
         f"cocobench: error: {latin}: not UTF-8 text (byte 0xe9 at offset 16)",
     ]
+
+
+# -- settings and config files that Python itself chokes on --------------------------------
+
+@pytest.mark.parametrize(("variable", "value", "named"), [
+    ("COCOBENCH_RUN_TEMPERATURE", "nan", "COCOBENCH_RUN_TEMPERATURE (--temperature, "),
+    ("COCOBENCH_RUN_TIMEOUT", "inf", "COCOBENCH_RUN_TIMEOUT (--timeout, "),
+    ("COCOBENCH_RUN_MAX_COST", "nan", "COCOBENCH_RUN_MAX_COST (--max-cost, "),
+    ("COCOBENCH_RUN_EPISODE_TIMEOUT", "inf", "COCOBENCH_RUN_EPISODE_TIMEOUT (--episode-timeout, "),
+    ("COCOBENCH_RUN_EXTRA", '{"top_p": NaN}', "COCOBENCH_RUN_EXTRA (--extra, "),
+], ids=["temperature-nan", "timeout-inf", "max-cost-nan", "episode-timeout-inf", "extra-NaN"])
+def test_a_setting_that_is_not_a_finite_number_is_refused(capsys, tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch,
+                                                          variable: str, value: str,
+                                                          named: str) -> None:
+    # COCOBENCH_RUN_TEMPERATURE=nan was accepted: every call then failed as "transient".
+    monkeypatch.setenv(variable, value)
+    out = tmp_path / "run"
+    code, _, err = run(capsys, "run", "--model", "openai/x", "--api-base",
+                       "http://127.0.0.1:9/v1", "--task", str(DEMO / f"{G_D1}.json"),
+                       "--out", str(out), "--dry-run")
+    assert code == 2 and err.startswith(f"cocobench: error: {named}"), err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+@pytest.mark.parametrize("text", [
+    "models: " + "[" * 10_000 + "]" * 10_000,
+    "selection:\n  sources: " + "[" * 10_000 + "]" * 10_000,
+    "models: " + "[" * 100 + "]" * 100,
+    "".join(f"{' ' * i}k{i}:\n" for i in range(3_000)),
+], ids=["list-10000", "nested-list-10000", "list-100", "mapping-3000"])
+def test_a_config_file_nested_too_deep_is_one_line(capsys, tmp_path: Path, text: str) -> None:
+    # A YAML file nested 10,000 deep was a RecursionError traceback.
+    config = tmp_path / "deep.yaml"
+    config.write_text(text)
+    code, _, err = run(capsys, "run", "--config", str(config), "--model", "greedy",
+                       "--out", str(tmp_path / "run"), "--dry-run")
+    assert code == 2 and err.strip().splitlines() == [
+        f"cocobench: error: {config}: nested more than 64 levels deep (a run's settings nest "
+        "a few levels)"]
+
+
+def test_a_toml_config_file_nested_too_deep_is_one_line(capsys, tmp_path: Path) -> None:
+    config = tmp_path / "deep.toml"
+    config.write_text("models = " + "[" * 10_000 + "]" * 10_000)
+    code, _, err = run(capsys, "run", "--config", str(config), "--out", str(tmp_path / "r"),
+                       "--dry-run")
+    assert code == 2 and f"{config}: nested more than 64 levels" in err
+
+
+@pytest.mark.parametrize("command", ["validate", "list", "run"])
+def test_an_integer_too_long_for_python_is_refused_naming_its_field(capsys, tmp_path: Path,
+                                                                    command: str) -> None:
+    # 5,000 digits: json raised "Exceeds the limit (4300 digits) for integer string
+    # conversion" from deep inside the decoder, a traceback.
+    config = tmp_path / "tasks" / "long.json"
+    config.parent.mkdir()
+    config.write_text((DEMO / f"{G_D1}.json").read_text(encoding="utf-8").replace(
+        '"seed": 0', '"seed": ' + "9" * 5_000, 1), encoding="utf-8")
+    assert "9" * 5_000 in config.read_text()
+    given = (("--task", str(config), "--model", "greedy", "--out", str(tmp_path / "run"))
+             if command == "run" else (str(config),))
+    code, _, err = run(capsys, command, *given)
+    assert code == 2 and err.strip() == (f"cocobench: error: {config}: seed: an integer of "
+                                         "5000 digits (Python converts at most 4300)")
+    assert not (tmp_path / "run").exists()

@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import asyncio
+import base64
+import gzip
 import json
+from urllib.parse import quote
 
 import pytest
 
+from cocobench_agents import RunRequest, run
 from cocobench_agents.models import (
     REDACTED,
     ModelConfigError,
@@ -18,7 +22,7 @@ from cocobench_agents.models import (
     redact_obj,
 )
 
-from .conftest import FAKE_KEY, FAKE_KEY_ENV, fast_settings
+from .conftest import CLIENTS, FAKE_KEY, FAKE_KEY_ENV, fast_settings
 from .fake_openai import SERVER_ERROR, Behaviour, error, ok
 
 
@@ -87,3 +91,74 @@ def test_settings_repr_has_no_key(fake_key):
     settings = ModelSettings(api_key_env=FAKE_KEY_ENV)
     assert FAKE_KEY not in repr(settings)
     assert settings.api_key() == FAKE_KEY
+
+
+USER, PASSWORD = "alice", "p@ss/SECRET-42"  # '@' and '/' travel percent-encoded in a URL
+
+
+def credential_forms(user: str = USER, password: str = PASSWORD) -> list[str]:
+    """Every form the URL credentials may take in an error: plain, percent-encoded, and the
+    HTTP Basic token (base64 of ``user:password``) with its own encodings."""
+    token = base64.b64encode(f"{user}:{password}".encode()).decode()
+    return [password, quote(password, safe=""), f"{user}:{password}", token,
+            quote(token, safe=""), base64.urlsafe_b64encode(f"{user}:{password}".encode())
+            .decode(), token.rstrip("=")]
+
+
+def with_credentials(url: str) -> str:
+    return url.replace("http://", f"http://{USER}:{quote(PASSWORD, safe='')}@")
+
+
+def test_url_credentials_echoed_by_the_server_never_leak(fake, transport):
+    # The issue's case: the server (or a proxy) echoes the Authorization header, which holds
+    # the base64 token of user:password, in its error.
+    fake.program(default=Behaviour(401, echo_auth=True))
+    settings = fast_settings(fake, api_base=with_credentials(fake.base_url), api_key_env=None,
+                             transport=transport)
+    client = CLIENTS[transport]("openai/fake-model", settings)
+    with pytest.raises(ModelError) as info:
+        asyncio.run(client.complete(ModelRequest("x")))
+    sent = fake.headers[0]["authorization"]
+    assert sent == f"Basic {credential_forms()[3]}"  # the credentials were used
+    shown = f"{info.value} {info.value.message!r} {json.dumps(info.value.extra)}"
+    assert REDACTED in info.value.message
+    for form in credential_forms():
+        assert form not in shown, form
+
+
+@pytest.mark.slow
+def test_url_credentials_are_stored_nowhere_in_a_run(fake, transport, tmp_path):
+    fake.program(default=Behaviour(500, echo_auth=True))
+    out = tmp_path / "run"
+    request = RunRequest(
+        out=out, models=["openai/fake-model"], conditions=["C0_blind"], max_steps=2,
+        selection={"sources": ["demo"], "task_ids": ["G_D1__DemoLivingRoom1__seed0"]},
+        preflight=False,
+        model_settings={"api_base": with_credentials(fake.base_url), "max_retries": 0,
+                        "transport": transport, "backoff_s": 0.001})
+    run(request)
+    assert fake.count > 0 and fake.headers[0]["authorization"].startswith("Basic ")
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert any(p.name == "trajectory.json" for p in files)
+    for path in files:
+        data = path.read_bytes()
+        text = (gzip.decompress(data) if path.suffix == ".gz" else data).decode()
+        for form in credential_forms():
+            assert form not in text, (path, form)
+    assert REDACTED in (out / "run.json").read_text()
+
+
+def test_an_api_key_given_in_extra_is_sent_and_never_shown(fake, transport, tmp_path):
+    # A local server with its own key, given with --extra: the LiteLLM transport sent the
+    # placeholder key instead (`Bearer no-key-required`).
+    key = "sk-local-server-key-7731"
+    settings = fast_settings(fake, api_key_env=None, transport=transport,
+                             extra_params={"api_key": key}, max_retries=0)
+    client = CLIENTS[transport]("openai/fake-model", settings)
+    asyncio.run(client.complete(ModelRequest("x")))
+    assert fake.headers[-1]["authorization"] == f"Bearer {key}"
+    fake.program(default=Behaviour(401, echo_auth=True))
+    with pytest.raises(ModelError) as info:
+        asyncio.run(client.complete(ModelRequest("x")))
+    assert key not in repr(info.value) and REDACTED in info.value.message
+    assert key not in json.dumps(settings.to_record())

@@ -123,3 +123,19 @@ def test_settings_from_the_run_variables():
     assert ModelSettings.from_run_variables({}) == ModelSettings()
     with pytest.raises(ValueError, match="COCOBENCH_RUN_TIMEOUT: Input should be greater than 0"):
         ModelSettings.from_run_variables({"COCOBENCH_RUN_TIMEOUT": "-1"})
+
+
+@pytest.mark.parametrize(("variable", "value"), [
+    ("COCOBENCH_RUN_TEMPERATURE", "nan"), ("COCOBENCH_RUN_TEMPERATURE", "-inf"),
+    ("COCOBENCH_RUN_TIMEOUT", "inf"), ("COCOBENCH_RUN_EXTRA", '{"top_p": NaN}'),
+    ("COCOBENCH_RUN_EXTRA", '{"x": {"y": [Infinity]}}'), ("COCOBENCH_RUN_EXTRA", "[" * 10_000),
+], ids=["nan", "-inf", "timeout-inf", "extra-NaN", "extra-Infinity", "extra-deep"])  # fmt: skip
+def test_a_number_that_is_not_finite_is_refused_naming_its_variable(variable, value):
+    # `nan` was accepted, and every call then failed later as a "transient" error.
+    with pytest.raises(ValueError, match=f"^{variable}: ") as info:
+        ModelSettings.from_run_variables({variable: value})
+    assert "\n" not in str(info.value)
+    with pytest.raises(ValueError, match="finite"):
+        ModelSettings(temperature=float("nan"))
+    with pytest.raises(ValueError, match="not finite"):
+        ModelSettings(extra_params={"top_p": float("inf")})
