@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -98,6 +99,26 @@ def write_json_atomic(path: str | Path, document: Mapping[str, Any]) -> Path:
 
 
 def load_trajectory(path: str | Path) -> dict[str, Any]:
-    """Read a `trajectory.json` (ours or the reference's)."""
-    with open(path, encoding="utf-8") as f:
-        return json.load(f)
+    """Read a `trajectory.json` (ours or the reference's): `ValueError` when it is not UTF-8
+    JSON text (`json_text`), `RecursionError` when it is nested too deep to read."""
+    with open(path, "rb") as f:
+        return json_text(f.read())
+
+
+#: A JSON escape of a UTF-16 surrogate (``\ud800``): valid JSON, but alone it is no
+#: character, and no text holding it can be written as UTF-8 (a page, a table, a file).
+_SURROGATE_ESCAPE = re.compile(rb"\\u[dD][89a-fA-F][0-9a-fA-F]{2}")
+
+
+def json_text(raw: bytes) -> Any:
+    """The JSON document `raw` holds; `ValueError` when it is not UTF-8, not JSON, or holds a
+    lone surrogate (a pair, an escaped emoji, is a character and is kept). Readers of run
+    folders take text through here, so that nothing they read fails later when written."""
+    value = json.loads(raw.decode("utf-8"))
+    if _SURROGATE_ESCAPE.search(raw):  # rare: only then is the whole document checked
+        try:
+            json.dumps(value, ensure_ascii=False).encode("utf-8")
+        except UnicodeEncodeError as exc:
+            raise ValueError(f"not text: a lone surrogate (\\u{ord(exc.object[exc.start]):04x}) "
+                             "that no UTF-8 file can hold") from None
+    return value

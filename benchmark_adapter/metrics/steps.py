@@ -184,15 +184,30 @@ def allowed_skills_by_agent(config: Mapping[str, Any]) -> dict[str, frozenset[st
     task-level list (as the menu does, §5.2); an agent still without skills is
     left out of the map, so none of its steps count as illegal.
     """
-    task_level = config.get("allowed_skills") or []
+    task_level = _skill_names(config.get("allowed_skills"), "task_config.allowed_skills")
+    agents = config.get("agents") or []
+    if not isinstance(agents, list):
+        raise TrajectoryError("task_config.agents", "not a list")
     out: dict[str, frozenset[str]] = {}
-    for agent in config.get("agents") or []:
+    for index, agent in enumerate(agents):
         if not isinstance(agent, Mapping) or not agent.get("id"):
             continue
-        skills = agent.get("allowed_skills") or task_level
+        path = f"task_config.agents[{index}]"
+        if not isinstance(agent["id"], str):
+            raise TrajectoryError(f"{path}.id", "not a string")
+        skills = _skill_names(agent.get("allowed_skills"), f"{path}.allowed_skills") or task_level
         if skills:
-            out[str(agent["id"])] = frozenset(skills)
+            out[agent["id"]] = frozenset(skills)
     return out
+
+
+def _skill_names(value: Any, path: str) -> list[str]:
+    """A list of skill names from a task config (absent: none)."""
+    if not value:
+        return []
+    if not isinstance(value, list) or not all(isinstance(name, str) for name in value):
+        raise TrajectoryError(path, "not a list of skill names")
+    return value
 
 
 def _as_step(step: Step | Mapping[str, Any]) -> Step:

@@ -33,6 +33,7 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
     """
     # Imported here: numpy and the report code load only when a report is made.
     from cocobench_agents.reports import Bootstrap, NotARunFolder, ReportError, build_report
+    from cocobench_agents.reports.build import ReportWriteError
     from cocobench_agents.reports.stats import DEFAULT_SEED
 
     target = Path(out) if out else Path(runs[0]) / "report"
@@ -44,6 +45,8 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
         raise click.BadParameter(str(exc), param_hint="RUN") from None
     except ReportError as exc:
         raise click.UsageError(str(exc)) from None
+    except ReportWriteError as exc:  # a read-only or full disk: exit 1
+        raise click.ClickException(str(exc)) from None
     for warning in summary.warnings:
         click.echo(f"warning: {warning}", err=True)
     for path in summary.files:

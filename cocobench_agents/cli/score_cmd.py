@@ -38,6 +38,12 @@ def score_command(trajectories: tuple[str, ...], as_json: bool) -> None:
         except (OSError, ValueError, RecursionError) as exc:
             errors += 1
             click.echo(f"cocobench: error: {path}: {_describe(exc)}", err=True)
+        # The scorer names the fields it checks (TrajectoryError); a field of another type
+        # that it reads as it is fails deeper, and is named by what failed.
+        except (TypeError, AttributeError, KeyError, IndexError, OverflowError) as exc:
+            errors += 1
+            click.echo(f"cocobench: error: {path}: not a trajectory the scorer can read (a "
+                       f"field of another type: {type(exc).__name__}: {_gist(exc)})", err=True)
     if as_json:
         click.echo(json.dumps([r.model_dump(mode="json") for r in records], indent=2))
     elif records:
@@ -76,3 +82,9 @@ def _describe(exc: Exception) -> str:
     if isinstance(exc, UnicodeDecodeError):
         return f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start})"
     return str(exc)
+
+
+def _gist(exc: Exception) -> str:
+    """The first line of `exc`'s message, short."""
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return text[:160]

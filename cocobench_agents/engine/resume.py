@@ -27,6 +27,24 @@ def check_credentials_given(request: RunRequest) -> None:
                            f"are never stored: give {flag} again")
 
 
+def check_recorded_code(recorded: RunRequest, chosen: Mapping[str, Any]) -> None:
+    """Refuse to take the planners of a resumed run from its record when they are code
+    (``FILE.py:NAME``, ``package.module:NAME``): a run folder is data, and one shared or
+    downloaded must not make its author's code run. The command names them again
+    (`chosen`: the values it was given, a config file's included), or the run is refused.
+    Built-in and installed planners are taken from the record."""
+    if any(chosen.get(name) is not None for name in ("conditions", "planners")):
+        return
+    names = recorded.conditions if recorded.conditions is not None else recorded.planners
+    code = [name for name in names if ":" in name]
+    if code:
+        flag = "--conditions" if recorded.conditions is not None else "--planner"
+        raise RequestError(f"--resume: the recorded run's planners are code ({', '.join(code)}), "
+                           "which a run folder never makes run: give "
+                           f"{flag} {','.join(code) if flag == '--conditions' else code[0]} "
+                           "again to run that code")
+
+
 def refused_changes(recorded: RunRequest, asked: RunRequest) -> list[str]:
     """One line per shaping setting whose value `asked` changes (both canonical)."""
     before, after = record_request(recorded), record_request(asked)

@@ -50,7 +50,7 @@ def open_run(path: Path) -> Run:
     if not path.is_dir():
         raise ExportError(f"{path}: not a run folder (a file; give the folder `cocobench run "
                           "--out` wrote)")
-    if not (path / RUN_FILE).is_file():
+    if not (path / RUN_FILE).exists():
         raise ExportError(f"{path}: not a run folder (no {RUN_FILE}; give the folder "
                           "`cocobench run --out` wrote)")
     locked = holder(path)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,6 +28,11 @@ TABLES: tuple[Callable[[result_tables.Ctx], Table], ...] = (
     diagnostics.construct_correlation,
 )
 PRIMARY_CONDITION = condition_name(result_tables.BASELINE_ARCH, IMAGE)  # the paper's main protocol
+
+
+class ReportWriteError(RuntimeError):
+    """The report folder could not be written (no permission, a read-only or full disk):
+    one line naming the path, exit code 1 (the runs read are not at fault)."""
 
 
 @dataclass
@@ -81,8 +87,24 @@ def build_report(runs: Sequence[str | Path], out: str | Path, *,
     data = load_runs(list(runs), arms=arms)
     shown = plot_condition(data, condition)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     made = compute_tables(data, boot)
+    with _writing(out):
+        return _write_report(data, made, out, boot, plots=plots, shown=shown)
+
+
+@contextlib.contextmanager
+def _writing(out: Path) -> Iterator[None]:
+    """`ReportWriteError` naming the file for a report that cannot be written."""
+    try:
+        yield
+    except OSError as exc:
+        where = exc.filename or out
+        raise ReportWriteError(f"cannot write {where}: {exc.strerror or exc}") from None
+
+
+def _write_report(data: ReportData, made: list[Table], out: Path, boot: Bootstrap, *,
+                  plots: bool, shown: str | None) -> ReportSummary:
+    out.mkdir(parents=True, exist_ok=True)
     files: list[Path] = []
     for table in made:
         files.append(_write(out / f"{table.name}.md", to_markdown(table)))
@@ -112,6 +134,9 @@ def build_report(runs: Sequence[str | Path], out: str | Path, *,
 
 
 def _write(path: Path, text: str) -> Path:
-    with open(path, "w", encoding="utf-8", newline="\n") as f:
-        f.write(text)
+    try:
+        with open(path, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
+    except OSError as exc:  # a write fails without naming its file (EFBIG, ENOSPC)
+        raise ReportWriteError(f"cannot write {path}: {exc.strerror or exc}") from None
     return path

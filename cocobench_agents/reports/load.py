@@ -257,14 +257,12 @@ def _check_same_settings(first: RunInfo, other: RunInfo, label: str, condition: 
 def _read_run(path: Path) -> tuple[RunInfo, dict[tuple, dict[str, Any]]]:
     folder = RunFolder(path)
     record: dict[str, Any] = {}
-    if (path / RUN_FILE).is_file():
-        try:
-            record = folder.run_record()
-        except OSError as exc:
-            raise NotARunFolder(f"{path / RUN_FILE}: unreadable ({exc})") from None
-        except RunFolderError as exc:  # not JSON, or not an object
-            raise NotARunFolder(str(exc)) from None
-    scan = folder.scan_results(check_trajectories=True)  # every line validated (pydantic)
+    try:
+        if (path / RUN_FILE).exists():
+            record = folder.run_record()  # (a folder in its place is named, not skipped)
+        scan = folder.scan_results(check_trajectories=True)  # every line validated (pydantic)
+    except RunFolderError as exc:  # unreadable, not JSON, a field of the wrong type
+        raise NotARunFolder(str(exc)) from None
     records = {(arm_label(k.model, k.arm) if k.arm else k.model, k.condition, k.task_id,
                 k.epoch): row for k, row in scan.latest.items()}  # file order of latest lines
     info = RunInfo(

@@ -26,7 +26,7 @@ from typing import Any
 
 import orjson
 
-from benchmark_adapter.trajectory import PROMPTS_FIELD, write_json_atomic
+from benchmark_adapter.trajectory import PROMPTS_FIELD, json_text, write_json_atomic
 from cocobench_agents.runfolder.episode_key import EpisodeKey, result_key
 from cocobench_agents.runfolder.errors import RunFolderError, gist, write_failed
 from cocobench_agents.runfolder.json_lines import (
@@ -36,6 +36,7 @@ from cocobench_agents.runfolder.json_lines import (
     json_object,
 )
 from cocobench_agents.runfolder.lock import RunLock
+from cocobench_agents.runfolder.record import record_error
 from cocobench_agents.runfolder.result_line import line_error, line_identity
 
 RESULTS = "results.jsonl"
@@ -162,15 +163,20 @@ class RunFolder:
         return removed
 
     def run_record(self) -> dict[str, Any]:
-        """`run.json` (`RunFolderError` naming it if it is not a JSON object)."""
+        """`run.json` (`RunFolderError` naming it if it cannot be read, is not a JSON object,
+        or has a field of a type its readers do not read: `record.RunRecord`)."""
         path = self.path / RUN_FILE
         try:
-            with open(path, encoding="utf-8") as f:
-                record = json.load(f)
+            record = json_text(path.read_bytes())
         except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, too deep
             raise RunFolderError(f"{path}: not a run record ({gist(exc)})") from None
+        except OSError as exc:  # a folder, no permission, an I/O error
+            raise RunFolderError(f"{path}: unreadable ({exc.strerror or exc})") from None
         if not isinstance(record, dict):
             raise RunFolderError(f"{path}: not a run record (a JSON object)")
+        error = record_error(record)
+        if error is not None:
+            raise RunFolderError(f"{path}: not a run record ({error})")
         return record
 
     def write_trajectory(self, key: EpisodeKey, document: dict[str, Any]) -> str:
@@ -195,11 +201,15 @@ class RunFolder:
         key = episode if isinstance(episode, EpisodeKey) else _episode_of_line(episode)
         path = self.inside(f"{key.folder()}/{PROMPTS_FILE}")
         try:
-            return json.loads(gzip.decompress(path.read_bytes()))
+            prompts = json_text(gzip.decompress(path.read_bytes()))
         except FileNotFoundError:
             return {}
-        except (OSError, EOFError, ValueError, zlib.error) as exc:  # a damaged file
+        except (OSError, EOFError, ValueError, RecursionError, zlib.error) as exc:  # damaged
             raise RunFolderError(f"{path}: unreadable ({gist(exc)})") from None
+        if not isinstance(prompts, dict) or not all(isinstance(text, str)
+                                                    for text in prompts.values()):
+            raise RunFolderError(f"{path}: not the prompts of an episode (an object of texts)")
+        return prompts
 
     def trajectory(self, episode: EpisodeKey | Mapping[str, Any]) -> dict[str, Any] | None:
         """An episode's trajectory document (its key, or its result line, whose `trajectory`
@@ -290,6 +300,9 @@ class RunFolder:
                     self._scanned = identity, self._scan(results.read())
         except FileNotFoundError:
             return ResultsScan()
+        except OSError as exc:  # a folder, no permission, an I/O error
+            raise RunFolderError(f"{self.results_path}: unreadable "
+                                 f"({exc.strerror or exc})") from None
         scanned = self._scanned[1]
         # Copies of the containers (the rows themselves are shared: read-only), so that a
         # caller may change its scan, not the next one's.
@@ -313,7 +326,7 @@ class RunFolder:
 
     def _scan_line(self, scan: ResultsScan, number: int, raw: bytes) -> None:
         try:
-            data: Any = json.loads(raw.decode("utf-8"))
+            data: Any = json_text(raw)
             error = line_error(data)
         except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, nested too deep
             data, error = None, f"not JSON ({gist(exc)})"

@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
 from benchmark_adapter.metrics import EpisodeResult
 from cocobench_agents.runfolder.episode_key import EpisodeKey
+from cocobench_agents.runfolder.record import MAX_EPOCHS
 
 Text = Annotated[str, Field(min_length=1)]
 Number = float | None  # strict: an int is a number, a string or a bool is not
@@ -46,7 +47,7 @@ _OWN: dict[str, Any] = {
     "model": (Text, ...),
     "condition": (Text, ...),
     "task_id": (Text, ...),
-    "epoch": (Annotated[int, Field(ge=0)] | None, 0),
+    "epoch": (Annotated[int, Field(ge=0, le=MAX_EPOCHS)] | None, 0),
     "arm": (Text | None, None),  # the prompt-suite arm, in a run comparing several
     "task_success": (Annotated[int, Field(ge=0, le=1)], ...),
     "infra_error": (str | None, None),

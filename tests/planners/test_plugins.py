@@ -114,12 +114,14 @@ def test_resume_refuses_a_changed_planner_file_and_keeps_what_was_recorded(strat
     out = tmp_path / "run"
     ref = f"{strategy}:build_one_node"
     assert main(["run", "--planner", ref, *DEMO, "--limit", "2", "--out", str(out)]) == 0
-    assert main(["run", "--out", str(out), "--resume"]) == 0  # unchanged: accepted
+    # A run folder never makes code run: the planner is named again to be loaded.
+    assert main(["run", "--out", str(out), "--resume", "--planner", ref]) == 0  # unchanged
     kept = (out / "results.jsonl").read_bytes()
     strategy.write_text(strategy.read_text() + "\n# tuned the prompt order\n")
     forget_user_planners()  # as a new process would
     capsys.readouterr()
-    assert main(["run", "--out", str(out), "--resume", "--retry-errors"]) == 2
+    assert main(["run", "--out", str(out), "--resume", "--retry-errors", "--planner",
+                 ref]) == 2
     line = error_line(capsys)
     assert str(strategy) in line and "changed since the run was recorded" in line
     assert (out / "results.jsonl").read_bytes() == kept
