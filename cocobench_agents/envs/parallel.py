@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
+from gymnasium import spaces
 from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
@@ -17,6 +18,7 @@ from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.envs.rewards import reward_weights, step_reward
 from cocobench_agents.envs.seated import (
+    DONE,
     EnvError,
     EnvWarning,
     SeatAction,
@@ -79,6 +81,10 @@ class CoCoBenchParallelEnv(ParallelEnv):
         self._frame = _frame_shape(self.configs[0]) if self.condition.obs_mode == IMAGE else None
         self._episodes: dict[str, SeatedEpisode] = {}
         self.set_partners(partners or {})
+        self._checks = max(_check_count(c) for c in self.configs)
+        size = 2 + self._checks + len(self.possible_agents) * (self._max_menu + 2)
+        #: `state()`'s space: a global view for centralized critics (see `state`).
+        self.state_space = spaces.Box(0.0, 1.0, (size,), np.float32)
         self._rng = np.random.default_rng(seed)
         self.episode: SeatedEpisode | None = None
         self.agents: list[str] = []
@@ -113,8 +119,30 @@ class CoCoBenchParallelEnv(ParallelEnv):
                            f"{', '.join(self.agents) or 'none (the episode has ended)'}")
         moves = {s: self._seat_spaces(s).decode(a) for s, a in actions.items()}
         before, items = episode.progress(), len(episode.episode.items)
+        decisions = len(episode.tools.decisions)
         episode.step(moves)
-        return self._outcome(episode, before, items)
+        return self._outcome(episode, before, items, decisions)
+
+    def state(self) -> np.ndarray:
+        """A global view for centralized critics, float32 in [0, 1]: the share of the step
+        budget used, the goal progress, each goal check passing (1) or not (its count that of
+        the source's instance with the most; the rest 0), then each seat's action mask over
+        `possible_agents` in order (DONE and the ids on its menu now, whoever plays it; a
+        seat without a menu now, or absent from this instance, all 0)."""
+        episode = self._live()
+        checks = episode.episode.items[-1]["eval"]["checks"]
+        masks = np.zeros((len(self.possible_agents), self._max_menu + 2), np.float32)
+        for row, seat in enumerate(self.possible_agents):
+            if seat in episode.seats and episode.acting(seat) and seat != LEADER_SEAT:
+                masks[row, 0] = 1.0
+                ids = [o.action_id for o in episode.tools.menu_options(
+                    None if seat == TEAM_SEAT else seat)]
+                masks[row, np.asarray(ids, int) - DONE] = 1.0
+        passed = np.zeros(self._checks, np.float32)
+        passed[:len(checks)] = [float(c["passed"]) for c in checks]
+        used = min(episode.tools.step_index / episode.spec.budget, 1.0)
+        return np.concatenate([[used, episode.progress()], passed, masks.ravel()]
+                              ).astype(np.float32)
 
     def render(self) -> str | np.ndarray | None:
         """The live seats' view as `render_mode` says: ``"ansi"``, each seat's prompt (its
@@ -156,12 +184,14 @@ class CoCoBenchParallelEnv(ParallelEnv):
 
     # -- internals ---------------------------------------------------------------------
 
-    def _outcome(self, episode: SeatedEpisode, before: float, items: int):
+    def _outcome(self, episode: SeatedEpisode, before: float, items: int, decisions: int):
         landed = episode.landed(items)
+        made = episode.tools.decisions[decisions:]
         gain = episode.progress() - before
         seats = self.agents
         rewards = {s: step_reward(self.weights, progress_gain=gain,
-                                  failed_calls=_failed(landed, s), result=episode.result)
+                                  failed_calls=_failed(landed, s) + _invalid(made, s),
+                                  result=episode.result)
                    for s in seats}
         truncated = episode.finished and episode.terminal_reason == "max_steps"
         terminations = dict.fromkeys(seats, episode.finished and not truncated)
@@ -334,6 +364,19 @@ def _failed(landed: list[dict[str, Any]], seat: str) -> int:
         return 0
     return sum(1 for item in landed if not item["skill_result"]["success"]
                and (seat == TEAM_SEAT or item["policy_decision"].get("agent") == seat))
+
+
+def _invalid(decisions: list[dict[str, Any]], seat: str) -> int:
+    """How many of `decisions` are `seat`'s choices off its menu (invalid ids)."""
+    agent = None if seat == TEAM_SEAT else seat
+    return sum(1 for d in decisions
+               if d.get("status") == "invalid_action_id" and d.get("agent") == agent)
+
+
+def _check_count(config: TaskConfig) -> int:
+    """How many goal checks `config`'s instance has: one per goal predicate
+    (`goals.GoalSet.evaluate`)."""
+    return len(config.goal_predicates)
 
 
 def _seats_of(config: TaskConfig, planner: str) -> list[str]:

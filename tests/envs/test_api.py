@@ -178,6 +178,49 @@ def test_a_failed_call_costs_its_seat_the_legality_weight():
     assert rewards == {"agent_1": -2.0, "agent_2": 0.0}
 
 
+def test_an_invalid_id_costs_what_a_failed_call_does_and_is_never_better_than_done():
+    from cocobench_agents.envs import DEFAULT_WEIGHTS, parallel_env
+
+    team = parallel_env(TASKS, condition="C0_blind", task_id=REAL)
+    team.reset()
+    invalid = team.step({"team": 999})[1]["team"]
+    team.reset()
+    done = team.step({"team": -1})[1]["team"]
+    assert invalid == -DEFAULT_WEIGHTS["legality"] < done == 0.0  # both end a C0 episode
+    robots = parallel_env(TASKS, condition="D0_blind", task_id=REAL)
+    robots.reset()
+    rewards = robots.step({"agent_1": 999, "agent_2": -1})[1]
+    assert rewards == {"agent_1": -DEFAULT_WEIGHTS["legality"], "agent_2": 0.0}
+
+
+def test_a_failed_call_costs_less_than_a_passing_check_is_worth():
+    from benchmark_adapter.episode import Episode
+    from benchmark_adapter.tasks import load_tasks
+    from cocobench_agents.envs import DEFAULT_WEIGHTS
+
+    for config in load_tasks(TASKS):
+        episode = Episode(config)
+        episode.reset()
+        checks = len(episode.items[-1]["eval"]["checks"])
+        assert 0 < DEFAULT_WEIGHTS["legality"] < DEFAULT_WEIGHTS["progress"] / checks
+
+
+def test_the_construct_score_is_paid_only_for_a_successful_episode():
+    from cocobench_agents.envs import parallel_env
+
+    environment = parallel_env(TASKS, condition="C0_blind", task_id=REAL,
+                               reward={"construct": 1.0, "progress": 0.0, "legality": 0.0,
+                                       "success": 0.0})
+    observations, _ = environment.reset()
+    rng, paid = np.random.default_rng(0), 0.0
+    while environment.agents:  # random moves to the budget: a construct score, no success
+        ids = np.flatnonzero(observations["team"]["action_mask"])[1:] - 1
+        observations, rewards, *_ = environment.step({"team": int(rng.choice(ids))})
+        paid += rewards["team"]
+    result = environment.state_result
+    assert result.task_success == 0 and result.construct_score > 0.4 and paid == 0.0
+
+
 def test_the_budget_truncates():
     from cocobench_agents.envs import parallel_env
 
@@ -465,3 +508,34 @@ def test_a_script_that_imports_torch_exits_cleanly(tmp_path):
     done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
                           timeout=300, cwd=Path(__file__).resolve().parents[2])
     assert done.returncode == 0 and done.stderr == ""
+
+
+@pytest.mark.parametrize("condition", CONDITIONS)
+def test_the_state_for_centralized_critics_passes_pettingzoos_state_test(condition):
+    from pettingzoo.test import state_test
+
+    from cocobench_agents.envs import env, parallel_env
+
+    state_test(env(TASKS, condition=condition, task_id=REAL),
+               parallel_env(TASKS, condition=condition, task_id=REAL), num_cycles=5)
+
+
+def test_the_state_holds_the_budget_the_goal_checks_and_every_seats_menu():
+    from benchmark_adapter.oracles import oracle_plan
+    from cocobench_agents.envs import parallel_env
+
+    environment = parallel_env(TASKS, condition="D0_blind", task_id=REAL,
+                               partners={"agent_2": "greedy"})
+    environment.reset()
+    size = environment.action_space("agent_1").n
+    state = environment.state()
+    assert state.shape == environment.state_space.shape == (2 + 3 + 2 * size,)
+    masks = state[5:].reshape(2, size)
+    assert masks[0, 0] == masks[1, 0] == 1  # both robots act: DONE is on each mask
+    menu = environment.episode.view("agent_2").menu  # the partner's menu is in it too
+    assert set(np.flatnonzero(masks[1])[1:] - 1) == {o.action_id for o in menu}
+    call = next(iter(oracle_plan(environment.episode.spec.config)))
+    entry = next(o for o in environment.episode.view("agent_1").menu if o.call == call)
+    environment.step({"agent_1": entry.action_id})
+    after = environment.state()
+    assert 0 < after[0] <= 1 and environment.state_space.contains(after)
