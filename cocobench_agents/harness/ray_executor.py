@@ -11,9 +11,11 @@ from it, the least busy first, with at most `jobs` episodes in flight across the
 worker that dies (its process, its node, its Unity) is dropped, and its episodes in flight go
 back to the front of the queue, once each, to run alone. The driver also watches each worker
 (`runaway`): one past its memory budget, or whose event loop stops answering, is killed; the
-episode that does it again alone is recorded as an infrastructure error naming the cause. A
-new worker starts whenever Ray has room for one (a node that joined, resources set free), up
-to `workers`; the run never waits for one while another can take episodes, and stops
+episode that does it again alone is recorded as an infrastructure error naming the cause; an
+episode still in flight `OVERDUE_GRACE_S` past its timeout is recorded as timed out and its
+worker stopped, so the driver never waits on one that will not come back. A new worker
+starts whenever Ray has room for one (a node that joined, resources set free), up to
+`workers`; the run never waits for one while another can take episodes, and stops
 (`WorkersLost`) when none has been alive for `ray_wait`.
 Model calls hold a permit of the run's `ConcurrencyLimiter`, so `max_concurrency` is a limit
 per model across the cluster.
@@ -33,7 +35,7 @@ from typing import Any
 
 from benchmark_adapter.vocabulary import AI2THOR
 from cocobench_agents.graphs import planner_spec
-from cocobench_agents.harness.batch import longest_first, start_key
+from cocobench_agents.harness.batch import longest_first, start_key, timeout_error
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.execution_settings import ExecutionSettings
 from cocobench_agents.harness.executor import (
@@ -50,7 +52,7 @@ from cocobench_agents.harness.ray_results import InFlight, ResultCollector
 from cocobench_agents.harness.ray_session import ray_session
 from cocobench_agents.harness.ray_watch import RunawayWatch
 from cocobench_agents.harness.ray_worker import run_key_variables
-from cocobench_agents.harness.workers import available_cores
+from cocobench_agents.harness.workers import OVERDUE_GRACE_S, available_cores
 from cocobench_agents.models import ModelPool
 from cocobench_agents.runfolder import RunFolder
 
@@ -161,6 +163,7 @@ class _Dispatch:
             self.fleet.grow(len(queue))
             self._fill(queue)
             self.watch.watch()
+            self._end_overdue()
             self.fleet.check_alive(len(queue) + len(self.in_flight))
             waiting = [*self.in_flight, *self.fleet.starting]
             if not waiting:  # no worker, none starting: the cluster has no room yet
@@ -174,6 +177,19 @@ class _Dispatch:
                     self.results.collect(ref, self.in_flight.pop(ref), queue)
         if self.halt.reason is not None:
             raise self.halt.reason
+
+    def _end_overdue(self) -> None:
+        """Record an episode still in flight `OVERDUE_GRACE_S` past its timeout as timed out
+        (its worker's own timeout should have ended it) and stop that worker: the driver
+        never waits on an episode that will not come back. The worker's other episodes are
+        lost with it (queued again alone, once)."""
+        if self.timeout_s is None:
+            return
+        now = time.perf_counter()
+        for ref, job in list(self.in_flight.items()):
+            if now - job.started > self.timeout_s + OVERDUE_GRACE_S:
+                del self.in_flight[ref]
+                self.results.overdue(job, timeout_error(self.timeout_s))
 
     def _fill(self, queue: deque[PlannedEpisode]) -> None:
         """Send queued episodes to the least busy workers, `jobs` in flight at most; an

@@ -65,6 +65,13 @@ class ResultCollector:
                 return
         self._record(job, document, record)
 
+    def overdue(self, job: InFlight, error: str) -> None:
+        """An episode the driver stopped waiting for (past its timeout): recorded as `error`,
+        its worker stopped."""
+        job.worker.busy -= 1
+        self.fleet.drop(job.worker, graceful=False)
+        self._record(job, None, self._error(job, error))
+
     def _requeue(self, planned: PlannedEpisode, queue: deque[PlannedEpisode]) -> bool:
         """Queue a lost episode again (next in line, for any worker), once."""
         self.requeued[planned.key] += 1

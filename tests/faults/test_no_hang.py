@@ -209,6 +209,26 @@ def test_a_planted_fault_ends_the_run_with_every_episode_recorded(tmp_path, exec
         assert_named(record, folder, phase)
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("executor", [CLI_EXECUTORS[0], CLI_EXECUTORS[2]])
+def test_an_episode_that_never_reports_is_ended_by_the_supervisor(tmp_path, executor):
+    """The worker's episode neither ends nor reports (its own timeout bypassed): the
+    supervisor (a Ray run's driver) records it as timed out half a second past
+    --episode-timeout, stops that worker, and the run ends."""
+    out = tmp_path / "run"
+    path = os.pathsep.join([str(PLANTED), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    result = cocobench("run", "--suite", "demo", "--limit", "2", "--planner", "centralized",
+                       "--obs", "blind", "--model", "greedy", "--episode-timeout", "1",
+                       *executor, "--out", str(out),
+                       env={planted.VARIABLE: planted.SILENT, "PYTHONPATH": path})
+    assert result.returncode == 1, result.stderr
+    assert f"cocobench run --out {out} --resume --retry-errors" in result.stderr
+    records = list(RunFolder(out).results())
+    assert len(records) == 2
+    assert all(r["infra_error"] == "episode timed out after 1 s of wall-clock time "
+               "(--episode-timeout)" for r in records)
+
+
 # -- a reply holding a lone surrogate -------------------------------------------------------------
 
 SURROGATE_REPLY = "REASON: \ud800 x\nACTION: 0"  # sent as the JSON escape "\ud800"

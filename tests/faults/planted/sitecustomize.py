@@ -6,7 +6,9 @@ imports it (Ray's own helpers) pays nothing.
 
 Phases: ``reply`` (the model's answer), ``parse`` (reading it), ``step`` (the simulator),
 ``score`` (scoring the trajectory), ``write`` (writing the trajectory: the run folder refuses
-the text, as it refused a reply's lone surrogate).
+the text, as it refused a reply's lone surrogate). And ``silent``: a worker's episode never
+ends nor reports (as a task that died without a word), and the supervisor's grace past
+``--episode-timeout`` is half a second.
 """
 
 from __future__ import annotations
@@ -25,6 +27,25 @@ TARGETS = {
     "step": ("benchmark_adapter.episode", "Episode.step"),
     "score": ("cocobench_agents.tools.episode_tools", "score_trajectory"),
     "write": ("cocobench_agents.runfolder.folder", "RunFolder.write_trajectory"),
+}
+
+
+SILENT = "silent"
+SILENT_GRACE_S = 0.5
+
+
+async def _never_reports(*args: Any, **kwargs: Any) -> Any:
+    import asyncio
+
+    await asyncio.Event().wait()
+
+
+#: module → (attribute, value) of the ``silent`` phase.
+SILENT_PATCHES = {
+    "cocobench_agents.harness.workers": [("run_one", _never_reports),
+                                         ("OVERDUE_GRACE_S", SILENT_GRACE_S)],
+    "cocobench_agents.harness.ray_worker": [("run_one", _never_reports)],
+    "cocobench_agents.harness.ray_executor": [("OVERDUE_GRACE_S", SILENT_GRACE_S)],
 }
 
 
@@ -51,15 +72,19 @@ def target(module: Any, attribute: str) -> tuple[Any, str]:
     return (getattr(module, owner_name) if owner_name else module), name
 
 
-def _patch(module: Any, attribute: str, phase: str) -> None:
-    setattr(*target(module, attribute), fault(phase))
+def _patch(module: Any, phase: str) -> None:
+    if phase == SILENT:
+        for attribute, value in SILENT_PATCHES[module.__name__]:
+            setattr(module, attribute, value)
+    else:
+        setattr(*target(module, TARGETS[phase][1]), fault(phase))
 
 
 class _PatchAfterImport(importlib.abc.MetaPathFinder):
     """Finds the target module as usual, and patches it once it has run."""
 
-    def __init__(self, module: str, attribute: str, phase: str) -> None:
-        self.module, self.attribute, self.phase = module, attribute, phase
+    def __init__(self, module: str, phase: str) -> None:
+        self.module, self.phase = module, phase
 
     def find_spec(self, fullname: str, path: Any, target: Any = None) -> Any:
         if fullname != self.module:
@@ -71,7 +96,7 @@ class _PatchAfterImport(importlib.abc.MetaPathFinder):
 
         def exec_module(module: Any) -> None:
             run_module(module)
-            _patch(module, self.attribute, self.phase)
+            _patch(module, self.phase)
 
         spec.loader.exec_module = exec_module  # type: ignore[method-assign]
         return spec
@@ -81,11 +106,12 @@ def _install() -> None:
     phase = os.environ.get(VARIABLE)
     if not phase:
         return
-    module, attribute = TARGETS[phase]
-    if module in sys.modules:
-        _patch(sys.modules[module], attribute, phase)
-    else:
-        sys.meta_path.insert(0, _PatchAfterImport(module, attribute, phase))
+    modules = list(SILENT_PATCHES) if phase == SILENT else [TARGETS[phase][0]]
+    for module in modules:
+        if module in sys.modules:
+            _patch(sys.modules[module], phase)
+        else:
+            sys.meta_path.insert(0, _PatchAfterImport(module, phase))
 
 
 _install()
