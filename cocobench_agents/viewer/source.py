@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import threading
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,9 @@ from cocobench_agents.viewer.errors import ViewerError
 from cocobench_agents.viewer.paths import path_part
 
 SHOWN_PROBLEMS = 5  # junk lines named one by one on the page; the rest are counted
+#: The most an episode's prompts may inflate to: a file that inflates to more is shown as
+#: no prompts kept (a compression bomb in a shared run folder would exhaust the memory).
+MAX_PROMPTS_BYTES = 256 * 2**20
 
 
 @dataclass
@@ -147,11 +151,16 @@ class RunSource:
     def prompts(self, episode: Episode) -> dict[str, str]:
         """The episode's prompts by hash (empty when the run did not keep them, or kept
         them in a form that is not text by hash)."""
-        if self.file(f"{episode.key.folder()}/{PROMPTS_FILE}") is None:
+        path = self.file(f"{episode.key.folder()}/{PROMPTS_FILE}")
+        if path is None:
             return {}  # absent, or a link out of the run folder
         try:
-            prompts = self.folder.prompts(episode.key)
-        except (OSError, ValueError, RecursionError):  # RecursionError: nested too deep
+            inflate = zlib.decompressobj(wbits=zlib.MAX_WBITS | 16)  # gzip
+            text = inflate.decompress(path.read_bytes(), MAX_PROMPTS_BYTES)
+            if inflate.unconsumed_tail:
+                return {}  # more than any run writes (a compression bomb)
+            prompts = json.loads(text)
+        except (OSError, ValueError, RecursionError, zlib.error):  # nested too deep, damaged
             return {}
         if not isinstance(prompts, dict):
             return {}
