@@ -107,7 +107,9 @@ def test_a_runaway_is_recorded_by_cause_and_the_run_goes_on(tmp_path, executor, 
     assert not any(r.get("infra_error") for r in records.values())
 
     # --retry-errors runs it again (and it runs away again: recorded again, not hung).
-    again = _cocobench("run", "--out", str(out), "--resume", "--retry-errors")
+    # (A planner file is code: a resume runs it only when given again.)
+    again = _cocobench("run", "--out", str(out), "--resume", "--retry-errors",
+                       "--planner", f"{PLANTED}:{planner}")
     assert again.returncode == 1, again.stderr
     latest = [r for r in _results(out) if r["task_id"] == RUNAWAY_TASK]
     assert len(latest) == 2 and latest[-1]["infra_error"].startswith(f"{cause}: ")
