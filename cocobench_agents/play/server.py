@@ -37,6 +37,7 @@ from aiohttp import web
 from markupsafe import Markup
 
 from cocobench_agents.play.desk import NotOnMenu, NotPending, NotRecorded, PlayDesk
+from cocobench_agents.prompts.parse import MESSAGE_LIMIT
 from cocobench_agents.viewer.local_server import (
     Handler,
     LocalServer,
@@ -48,8 +49,11 @@ from cocobench_agents.viewer.local_server import (
 TOKEN_HEADER = "X-Cocobench-Token"
 #: How long a state request with `after` waits for a change before answering anyway.
 LONG_POLL_S = 25.0
-#: The longest reason or message a person may send (a reply line, not an essay).
+#: The longest reason a person may send (a reply line, not an essay).
 MAX_TEXT = 1000
+#: The longest message: what a teammate reads of a model's message too (`MESSAGE_LIMIT`),
+#: so that the answer log and the broadcast hold the same text.
+MAX_MESSAGE = MESSAGE_LIMIT
 #: The largest request body taken.
 MAX_BODY = 16 * 1024
 PAGE_PATH = "/play"
@@ -66,7 +70,7 @@ class AnswerBody(pydantic.BaseModel):
     decision: str = pydantic.Field(max_length=500)
     action_id: int | None  # None (JSON null): DONE, every goal is satisfied
     reason: str = pydantic.Field("", max_length=MAX_TEXT)
-    message: str = pydantic.Field("", max_length=MAX_TEXT)
+    message: str = pydantic.Field("", max_length=MAX_MESSAGE)
 
 
 class Changes:

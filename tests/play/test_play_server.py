@@ -171,6 +171,8 @@ def test_api_calls_need_the_token_header_and_the_own_host(server: PlayServer,
     ({"decision": "D", "action_id": True}, 400, "action_id"),
     ({"decision": "D", "action_id": 3, "cheat": 1}, 400, "cheat"),
     ({"decision": "D", "action_id": 3, "reason": "x" * 1001}, 400, "reason"),
+    # longer than a teammate would read (a model's message is cut there)
+    ({"decision": "D", "action_id": 3, "message": "x" * 201}, 400, "message"),
     ({"decision": "D", "action_id": 4}, 422, "not on the menu"),
     ({"decision": "D", "action_id": 3, "message": "hi"}, 422, "sends no messages"),
     ({"decision": "human/D1_blind/T#agent_1#9", "action_id": 3}, 409, "not waiting"),
