@@ -2,8 +2,8 @@
 (extra) each test needs.
 
 A test that needs an extra carries its marker (`needs_ray`, `needs_thor`, `needs_browser`,
-`needs_langgraph_cli`, `needs_export`, `needs_env`, `needs_trl`, `needs_inspect`, `llm`);
-where that piece is missing, the test is skipped with the reason and the command that
+`needs_langgraph_cli`, `needs_export`, `needs_env`, `needs_trl`, `needs_inspect`, `llm`,
+`vlm`); where that piece is missing, the test is skipped with the reason and the command that
 installs it. Nothing else in the tests skips on a missing extra. `--fail-on-skip` turns any
 skip into a failed session (CI's run with every extra installed).
 """
@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.models.colour_vlm import missing_reason as vlm_missing
 from tests.models.llama_server import missing_reason as llm_missing
 from tests.viewer.browser import why_unavailable as browser_missing
 
@@ -86,6 +87,7 @@ EXTRAS = (
     Extra("needs_langgraph_cli", langgraph_cli_missing),
     Extra("needs_inspect", module_missing("inspect_ai", "pip install -e '.[inspect]'")),
     Extra("llm", llm_missing),
+    Extra("vlm", vlm_missing),
     Extra("needs_export", lambda: module_missing("pyarrow", EXPORT_INSTALL)()
           or module_missing("datasets", EXPORT_INSTALL)()),
 )

@@ -26,3 +26,8 @@ def import_inspect_command(log: str, out: str) -> None:
     errors = f", {imported.errors} infrastructure errors" if imported.errors else ""
     click.echo(f"{imported.folder}: {imported.episodes} episodes{errors}; "
                f"view them with: cocobench view {imported.folder}")
+    if imported.incomplete or imported.errors:
+        state = (f"incomplete (the log's status: {imported.status})" if imported.incomplete
+                 else "errors")
+        click.echo(f"warning: the eval is {state}; complete or retry it with: "
+                   f"{imported.retry}", err=True)

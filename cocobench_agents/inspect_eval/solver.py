@@ -11,6 +11,7 @@ an error (Inspect's ``--retry-on-error`` runs it again), never in a score.
 from __future__ import annotations
 
 import dataclasses
+import time
 from typing import Any
 
 from inspect_ai.model import ModelOutput, get_model
@@ -47,6 +48,7 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
         spec = dataclasses.replace(
             episode.spec, models=seat_models(episode), sample_index=key.epoch,
             episode_key=key.folder().removeprefix("episodes/"))
+        started = time.perf_counter()
         try:
             document, result = await run_episode(spec, ModelPool(settings),
                                                  controller=spec.controller())
@@ -57,7 +59,7 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
                 raise limit from None  # Inspect ends the sample at its limit
             state.store.set(TRAJECTORY, exc.document)
             raise EpisodeInfraError(str(exc)) from None
-        line = result_line(result, key)
+        line = result_line(result, key, elapsed_s=time.perf_counter() - started)
         state.store.set(TRAJECTORY, document)
         state.store.set(RESULT, line)
         state.output = ModelOutput.from_content(key.model, _summary(line))
@@ -101,10 +103,15 @@ def seat_models(episode: PlannedEpisode) -> dict[str, str]:
     return models
 
 
-def result_line(result: EpisodeResult, key: EpisodeKey) -> dict[str, Any]:
-    """An episode's scored result as the result line `cocobench run` writes for `key`."""
-    return {**result.model_copy(update={"condition": key.condition, "epoch": key.epoch})
+def result_line(result: EpisodeResult, key: EpisodeKey, *, elapsed_s: float | None = None
+                ) -> dict[str, Any]:
+    """An episode's scored result as the result line `cocobench run` writes for `key` (with
+    its wall time, as the run's report shows it, when known)."""
+    line = {**result.model_copy(update={"condition": key.condition, "epoch": key.epoch})
             .model_dump(mode="json"), **key.as_dict()}
+    if elapsed_s is not None:
+        line["elapsed_s"] = round(elapsed_s, 3)
+    return line
 
 
 def _key(episode: PlannedEpisode, epoch: int) -> EpisodeKey:

@@ -371,3 +371,44 @@ def test_an_inspect_usage_limit_ends_the_sample_scored_as_it_stands(tmp_path: Pa
         scores = sample.scores["cocobench_scorer"].value
         expected = score_values(line)
         assert all(_same(scores[k], expected[k]) for k in expected), (line, scores)
+
+
+def test_an_imported_run_names_its_log_and_how_it_ran(tmp_path: Path):
+    """run.json of an import: the source log, the command that runs the eval again (run here),
+    Inspect's transport; each line's wall time; an interrupted log is told as incomplete,
+    with the commands that complete it."""
+    import shlex
+
+    from inspect_ai.log import read_eval_log, write_eval_log
+
+    from cocobench_agents.runfolder.folder import RunFolder
+
+    log = _inspect_eval(tmp_path, REPLIES, task=config_paths()[0], conditions="C0_blind",
+                        max_steps=2).location
+    out = tmp_path / "imported"
+    done = _import(log, out)
+    assert done.returncode == 0 and "warning" not in done.stderr, done.stderr
+    record = json.loads((out / "run.json").read_text())
+    assert record["imported_from"]["inspect_log"] == str(Path(log).resolve())
+    assert record["imported_from"]["status"] == "success"
+    assert record["request"]["model_settings"]["transport"] == "inspect"
+    assert all(line["elapsed_s"] > 0 for line in RunFolder(out).results())
+    command = shlex.split(record["command"])
+    assert command[:5] == ["inspect", "eval", "cocobench_agents/cocobench", "--model",
+                           "mockllm/model"]
+    again = subprocess.run([*inspect_command(), *command[1:], "--log-dir",
+                            str(tmp_path / "again"), "--display", "plain"],
+                           capture_output=True, text=True, env=subprocess_env(
+                               checkout_first=False), timeout=300, check=False)
+    assert again.returncode == 0, again.stdout[-2000:] + again.stderr[-2000:]
+    [rerun] = [read_eval_log(str(p)) for p in (tmp_path / "again").glob("*.eval")]
+    assert [s.id for s in rerun.samples] == [s.id for s in read_eval_log(log).samples]
+    # a log Ctrl-C ended: imported, and told as incomplete with Inspect's retry
+    interrupted = read_eval_log(log)
+    interrupted.status = "cancelled"
+    write_eval_log(interrupted, str(tmp_path / "cancelled.eval"))
+    done = _import(str(tmp_path / "cancelled.eval"), tmp_path / "partial")
+    assert done.returncode == 0, done.stderr
+    assert "the eval is incomplete (the log's status: cancelled)" in done.stderr
+    assert f"inspect eval-retry {tmp_path / 'cancelled.eval'}, then cocobench " \
+           "import-inspect NEW_LOG" in done.stderr
