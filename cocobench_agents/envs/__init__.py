@@ -22,7 +22,7 @@ _EXPORTS = {
     "SeatedEpisode": ".seated",
     "CoCoBenchTRLEnv": ".trl_env", "trl_environment": ".trl_env",
 }
-__all__ = sorted(_EXPORTS)
+__all__ = sorted([*_EXPORTS, "SEAT_ENV_ID"])
 
 __getattr__ = lazy_getattr(__name__, _EXPORTS)
 
