@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import shutil
 import sys
+import uuid
 from pathlib import Path
 
 from tests.paths import SHARED_DATA
@@ -40,6 +41,16 @@ def subprocess_env(*, checkout_first: bool = True) -> dict[str, str]:
         env["PYTHONPATH"] = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH"))
                                             if p)
     return env
+
+
+def openai_api(monkeypatch, base_url: str, key: str = "sk-fake-inspect-0001") -> str:
+    """The prefix of Inspect model names (``openai-api/SERVICE``) that reach the
+    OpenAI-compatible server at `base_url`: a service name of its own, since Inspect keeps
+    one model per name in a process (a name used before would reach that server still)."""
+    service = f"svc{uuid.uuid4().hex[:10]}"
+    monkeypatch.setenv(f"{service.upper()}_BASE_URL", base_url)
+    monkeypatch.setenv(f"{service.upper()}_API_KEY", key)
+    return f"openai-api/{service}"
 
 
 def inspect_command() -> list[str]:

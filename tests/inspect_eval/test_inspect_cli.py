@@ -15,7 +15,7 @@ import pytest
 
 from tests.faults.test_model_faults import LLAMA_NO_IMAGES, Provider, _has_image
 
-from .conftest import inspect_command, subprocess_env
+from .conftest import inspect_command, openai_api, subprocess_env
 
 pytestmark = [pytest.mark.needs_inspect, pytest.mark.slow]
 
@@ -25,7 +25,8 @@ FIRST_COMMAND = ["eval", "cocobench_agents/cocobench", "--model", "mockllm/model
 #: A proxy nothing listens on: anything the command tries to download fails at once.
 NO_NETWORK = "http://127.0.0.1:9"
 #: Inspect's provider for an OpenAI-compatible server reads FAKE_BASE_URL and FAKE_API_KEY
-#: for the models ``openai-api/fake/NAME``.
+#: for the models ``openai-api/fake/NAME`` (in a process of its own: in this one, each test
+#: takes a service name of its own, `openai_api`).
 SERVICE = "fake"
 
 
@@ -122,14 +123,12 @@ def preflight_of(tmp_path: Path, model: str, conditions: str, monkeypatch) -> tu
 
 
 def test_a_dead_endpoint_stops_the_eval_before_any_sample(tmp_path: Path, monkeypatch):
-    monkeypatch.setenv(f"{SERVICE.upper()}_BASE_URL", f"http://127.0.0.1:{closed_port()}/v1")
-    monkeypatch.setenv(f"{SERVICE.upper()}_API_KEY", "sk-fake-inspect-0001")
-    message, took = preflight_of(tmp_path, f"openai-api/{SERVICE}/healthy", "C0_blind",
-                                 monkeypatch)
+    model = f"{openai_api(monkeypatch, f'http://127.0.0.1:{closed_port()}/v1')}/healthy"
+    message, took = preflight_of(tmp_path, model, "C0_blind", monkeypatch)
     assert took < 30, took
     assert message.startswith("pre-flight call failed (no sample was started; "
                               "-T preflight=false skips this check): "
-                              f"openai-api/{SERVICE}/healthy (text only): transient: "), message
+                              f"{model} (text only): transient: "), message
     assert "APIConnectionError: Connection error. (ConnectError: " in message
 
 
@@ -142,9 +141,7 @@ def provider():
 
 def test_a_text_only_model_under_an_image_condition_is_stopped_with_its_words(
         tmp_path: Path, provider: Provider, monkeypatch):
-    monkeypatch.setenv(f"{SERVICE.upper()}_BASE_URL", provider.base_url)
-    monkeypatch.setenv(f"{SERVICE.upper()}_API_KEY", "sk-fake-inspect-0001")
-    model = f"openai-api/{SERVICE}/text-only"
+    model = f"{openai_api(monkeypatch, provider.base_url)}/text-only"
     message, took = preflight_of(tmp_path, model, "C0_image,C0_blind", monkeypatch)
     assert took < 30, took
     # the image's probe failed with the server's words; the text-only one passed

@@ -16,7 +16,7 @@ import pytest
 from tests.faults.test_model_faults import Provider
 from tests.models.fake_openai import Behaviour, completion_body
 
-from .conftest import config_paths, subprocess_env
+from .conftest import config_paths, openai_api, subprocess_env
 
 pytestmark = [pytest.mark.needs_inspect, pytest.mark.slow]
 
@@ -76,12 +76,11 @@ def test_extra_keys_and_cached_tokens_mean_the_same_at_both_doors(
     trajectory = json.loads((tmp_path / "run" / line["trajectory"]).read_text())
 
     provider.program()
-    monkeypatch.setenv("FAKE_BASE_URL", provider.base_url)
-    monkeypatch.setenv("FAKE_API_KEY", "sk-fake-doors-0001")
+    model = f"{openai_api(monkeypatch, provider.base_url)}/healthy"
     [log] = inspect_eval(cocobench, task_args={"task": task, "conditions": "C0_blind",
                                                "max_steps": 2, "extra": EXTRA,
                                                "temperature": 0},
-                         model="openai-api/fake/healthy", log_dir=str(tmp_path / "logs"),
+                         model=model, log_dir=str(tmp_path / "logs"),
                          display="none")
     [sample] = read_eval_log(log.location).samples
     assert sample.error is None, sample.error
@@ -108,14 +107,13 @@ def test_a_reply_of_inspects_cache_is_a_cached_reply(tmp_path: Path, provider: P
     from cocobench_agents.inspect_eval.solver import TRAJECTORY
     from cocobench_agents.inspect_eval.task import cocobench
 
-    monkeypatch.setenv("FAKE_BASE_URL", provider.base_url)
-    monkeypatch.setenv("FAKE_API_KEY", "sk-fake-doors-0001")
+    model = f"{openai_api(monkeypatch, provider.base_url)}/healthy"
     monkeypatch.setenv("INSPECT_CACHE_DIR", str(tmp_path / "cache"))
     args = {"task": config_paths()[0], "conditions": "C0_blind", "max_steps": 2,
             "temperature": 0}
 
     def decisions() -> list[dict[str, Any]]:
-        [log] = inspect_eval(cocobench, task_args=args, model="openai-api/fake/healthy",
+        [log] = inspect_eval(cocobench, task_args=args, model=model,
                              log_dir=str(tmp_path / "logs"), display="none", cache=True)
         [sample] = read_eval_log(log.location).samples
         assert sample.error is None, sample.error
@@ -165,17 +163,16 @@ def test_an_unsent_temperature_is_warned_at_both_doors(tmp_path: Path, provider:
 
     from cocobench_agents.inspect_eval.task import cocobench
 
-    monkeypatch.setenv("FAKE_BASE_URL", provider.base_url)
-    monkeypatch.setenv("FAKE_API_KEY", "sk-fake-doors-0001")
+    model = f"{openai_api(monkeypatch, provider.base_url)}/healthy"
     args = {"task": config_paths()[0], "conditions": "C0_blind", "max_steps": 1}
     said = {}
     for temperature in (None, 0):
         caplog.clear()
         inspect_eval(cocobench, task_args={**args, "temperature": temperature},
-                     model="openai-api/fake/healthy", log_dir=str(tmp_path / "logs"),
+                     model=model, log_dir=str(tmp_path / "logs"),
                      display="none")
         said[temperature] = caplog.text
-    assert "sampling is unset for openai-api/fake/healthy" in said[None], said
+    assert f"sampling is unset for {model}" in said[None], said
     assert "not reproducible; -T temperature=0 fixes it" in said[None]
     assert "sampling is unset" not in said[0]
     done = subprocess.run(
