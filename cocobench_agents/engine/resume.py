@@ -35,14 +35,22 @@ def check_recorded_code(recorded: RunRequest, chosen: Mapping[str, Any]) -> None
     Built-in and installed planners are taken from the record."""
     if any(chosen.get(name) is not None for name in ("conditions", "planners")):
         return
-    names = recorded.conditions if recorded.conditions is not None else recorded.planners
-    code = [name for name in names if ":" in name]
+    code = planner_code(recorded.model_dump(mode="json"))
     if code:
         flag = "--conditions" if recorded.conditions is not None else "--planner"
         raise RequestError(f"--resume: the recorded run's planners are code ({', '.join(code)}), "
                            "which a run folder never makes run: give "
                            f"{flag} {','.join(code) if flag == '--conditions' else code[0]} "
                            "again to run that code")
+
+
+def planner_code(request: Mapping[str, Any]) -> list[str]:
+    """The planners that a request's values (`RunRequest` data, as recorded) name as code:
+    ``FILE.py:NAME`` or ``package.module:NAME`` (a condition's or a planner's reference;
+    built-in and installed planners are named without a colon)."""
+    conditions = request.get("conditions")
+    names = conditions if conditions is not None else request.get("planners")
+    return [name for name in names or [] if isinstance(name, str) and ":" in name]
 
 
 def refused_changes(recorded: RunRequest, asked: RunRequest) -> list[str]:

@@ -80,7 +80,9 @@ def test_an_output_folder_in_use_is_refused_and_left_as_it_was(capsys, played_ru
 @pytest.mark.needs_export
 def test_a_damaged_trajectory_is_named(capsys, run_copy, tmp_path):
     line = result_lines(run_copy)[3]
-    (run_copy / line["trajectory"]).write_text("{not json")
+    # Whole to the end (a file cut short counts as not done: `--resume` runs it again), but
+    # not JSON.
+    (run_copy / line["trajectory"]).write_text("{not json\n}")
     error = one_error(capsys, run_copy, "--out", tmp_path / "ds")
     assert f"{run_copy / line['trajectory']}: unreadable" in error
     assert not (tmp_path / "ds").exists()  # what it had written is removed

@@ -113,6 +113,12 @@ def mutations(run: Path) -> st.SearchStrategy[Mutation]:
         return st.one_of(
             st.builds(Mutation, st.just(target), index, st.just("set"),
                       st.sampled_from(paths[target]), values, st.booleans()),
+            # a code reference in one field (a condition, a planner, a model, …)
+            st.builds(Mutation, st.just(target), index, st.just("set"),
+                      st.sampled_from(paths[target]),
+                      st.sampled_from(CODE_REFERENCES) | st.lists(
+                          st.sampled_from(CODE_REFERENCES), min_size=1, max_size=2),
+                      st.booleans()),
             st.builds(Mutation, st.just(target), index, st.just("delete"),
                       st.sampled_from(paths[target]), st.none(), st.booleans()),
             st.builds(Mutation, st.just(target), index, st.just("every_text"), st.just(()),

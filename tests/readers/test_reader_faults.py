@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from cocobench_agents.cli import main
+from tests.paths import SHARED_TASKS
 from tests.readers.conftest import CANARY_FILE, planted_copy
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -238,3 +239,28 @@ def test_a_report_into_a_read_only_run_folder_is_one_line(run, tmp_path):
     assert done.returncode == 1, done.stderr
     assert done.stderr.startswith(f"Error: cannot write {run / 'report'}"), done.stderr
     assert "Traceback" not in done.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.needs_inspect
+def test_import_inspect_never_runs_a_planner_the_log_names(capsys, tmp_path, run, canary):
+    """An Inspect log of the task whose recorded request names the canary as its condition:
+    the import stops in one line before anything is loaded or written."""
+    from inspect_ai import eval as inspect_eval
+    from inspect_ai.log import write_eval_log
+
+    from cocobench_agents.inspect_eval.task import REQUEST, cocobench
+    from tests.inspect_eval.conftest import scripted_mockllm
+
+    [log] = inspect_eval(cocobench(task=[str(SHARED_TASKS / "A_D1__FloorPlan1__seed0.json")],
+                                   conditions="C0_blind", max_steps=2),
+                         model=scripted_mockllm(["ACTION: 0"]), display="none",
+                         log_dir=str(tmp_path / "logs"))
+    reference = f"{run / CANARY_FILE}:build_x_blind"
+    log.eval.metadata[REQUEST]["conditions"] = [reference]
+    shared = tmp_path / "shared.eval"
+    write_eval_log(log, str(shared))
+    line = one_error(capsys, "import-inspect", shared, "--out", tmp_path / "imported")
+    assert line == (f"cocobench: error: {shared}: the task ran planners that are code "
+                    f"({reference}), which import-inspect never loads from a log")
+    assert not canary.exists() and not (tmp_path / "imported").exists()
