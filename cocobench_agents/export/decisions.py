@@ -114,6 +114,8 @@ def _decision_columns(decision: Mapping[str, Any], index: int, prompt: str | Non
 
 
 def _legality(status: Any) -> bool | None:
+    if not isinstance(status, str):
+        return None
     if status in LEGAL_STATUSES:
         return True
     return False if status in ILLEGAL_STATUSES else None
@@ -134,9 +136,11 @@ def _identity(decision: Mapping[str, Any]) -> object:
     # The harness's records carry a cumulative counter of model calls (planner_steps): with
     # the seat and the prompt it tells an episode's decisions apart. A record without it (a
     # trajectory written elsewhere) is known by its whole content.
+    # (As text either way: a field of a damaged record may be a list, which no key holds.)
     if isinstance(decision.get("planner_steps"), int):
-        return (decision.get("agent"), decision.get("step_index"), decision["planner_steps"],
-                decision.get("prompt_hash"))
+        return json.dumps([decision.get("agent"), decision.get("step_index"),
+                           decision["planner_steps"], decision.get("prompt_hash")],
+                          sort_keys=True, default=str)
     return json.dumps(decision, sort_keys=True, default=str)
 
 

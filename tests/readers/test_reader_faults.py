@@ -264,3 +264,15 @@ def test_import_inspect_never_runs_a_planner_the_log_names(capsys, tmp_path, run
     assert line == (f"cocobench: error: {shared}: the task ran planners that are code "
                     f"({reference}), which import-inspect never loads from a log")
     assert not canary.exists() and not (tmp_path / "imported").exists()
+
+
+@pytest.mark.needs_export
+def test_export_reads_a_decision_whose_seat_and_status_are_lists(capsys, run, tmp_path):
+    """Found by the property test: a decision's `agent` (and `status`) that is a list made
+    the export's own keys unhashable (a TypeError traceback)."""
+    path = next(run.glob("episodes/greedy/D1_blind/*/trajectory.json"))
+    document = json.loads(path.read_text())
+    document["planner_decisions"][2].update(agent=[["agent_1"]], status=["action"])
+    path.write_text(json.dumps(document, indent=2))
+    code, _, err = cocobench(capsys, "export", run, "--out", tmp_path / "dataset")
+    assert code == 0, err
