@@ -9,8 +9,10 @@ from typing import Any
 
 
 def model_slug(model: str) -> str:
-    """A folder-safe form of a model string."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", model).strip("_") or "model"
+    """A folder-safe form of a model string (never `.` or `..`, which would name a folder
+    above the one it is meant to be in)."""
+    slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", model).strip("_")
+    return slug if slug.strip(".") else "model"
 
 
 @dataclass(frozen=True)

@@ -42,3 +42,10 @@ def test_the_benchmarks_fields_are_checked_by_their_own_types(infra_line):
 def test_unrun_result_takes_only_the_runs_identifiers():
     with pytest.raises(TypeError, match="cell"):
         unrun_result(load_tasks("demo")[0], cell="A_D1")
+
+
+@pytest.mark.parametrize("name", [".", "..", "...", "/..", "../.."])
+def test_a_model_or_arm_named_by_dots_stays_in_its_own_folder(name):
+    """A model (or arm) string of dots alone would name the folder above `episodes/`."""
+    parts = EpisodeKey(name, "C0_blind", "t1", arm=name).folder().split("/")
+    assert parts[0] == "episodes" and not {".", ".."} & set(parts)
