@@ -24,6 +24,7 @@ from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.partial_output import removed_on_failure
 from cocobench_agents.runfolder.folder import RunFolder
+from cocobench_agents.runfolder.infra import inspect_retry_command
 
 from .solver import RESULT, TRAJECTORY, result_line
 from .task import REQUEST, sample_id
@@ -59,7 +60,7 @@ def import_log(log_path: str | Path, out: str | Path) -> ImportedRun:
     samples = [(sample, _episode(sample, planned)) for sample in log.samples or []]
     folder = RunFolder(out)
     folder.check_unused()
-    retry = retry_commands(Path(log_path), Path(out))
+    retry = inspect_retry_command(Path(log_path), Path(out))
     record = {**run_record(resolved), "command": inspect_command(log, seat_roles(log, Path(out))),
               # where the run came from, and how to complete or retry it (a report's advice)
               "imported_from": {"inspect_log": str(Path(log_path).resolve()),
@@ -94,13 +95,6 @@ def inspect_command(log: EvalLog, roles: dict[str, str]) -> str:
     if (log.eval.config.epochs or 1) > 1:
         parts += ["--epochs", str(log.eval.config.epochs)]
     return shlex.join(parts)
-
-
-def retry_commands(log_path: Path, out: Path) -> str:
-    """How to complete an interrupted eval or run its errored samples again, then read the
-    result: Inspect's retry writes a new log, imported into a new folder."""
-    return (f"inspect eval-retry {shlex.quote(str(log_path))}, then cocobench import-inspect "
-            f"NEW_LOG --out {shlex.quote(str(out))}-retried")
 
 
 def _task_arg(value: Any) -> str:

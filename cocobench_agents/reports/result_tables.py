@@ -92,7 +92,7 @@ def infra_warnings(data: ReportData) -> list[str]:
     failed = int(data.episodes.col("infra_failure").sum()) if len(data.episodes) else 0
     if not failed:
         return []
-    retries = "; ".join(retry_command(r.path) for r in data.runs if r.infra_errors)
+    retries = "; ".join(retry_command(r.path, r.record) for r in data.runs if r.infra_errors)
     return [f"{failed} of {len(data.episodes)} episodes ended on an infrastructure error "
             "(model backend error, timeout, unsupported input, or the harness), not on the "
             f"model's choices; they count as failures in every rate. Re-run them: {retries}"]

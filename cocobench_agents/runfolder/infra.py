@@ -34,6 +34,21 @@ def count_infra_failures(records: Iterable[Mapping[str, Any]]) -> int:
     return sum(is_infra_failure(r) for r in records)
 
 
-def retry_command(out: str | Path) -> str:
-    """The command that re-runs a run folder's infrastructure failures."""
+def retry_command(out: str | Path, record: Mapping[str, Any] | None = None) -> str:
+    """The command that re-runs a run folder's infrastructure failures. For a run imported
+    from an Inspect log (`record`, its run.json, names the log in ``imported_from``) that is
+    Inspect's own retry of the log, then an import of the new log: `cocobench run` cannot
+    resume a run it did not make. The command is built here from the log's path, never taken
+    as text from the folder."""
+    imported = record.get("imported_from") if isinstance(record, Mapping) else None
+    log = imported.get("inspect_log") if isinstance(imported, Mapping) else None
+    if isinstance(log, str) and log and "\0" not in log:
+        return inspect_retry_command(log, out)
     return f"cocobench run --out {shlex.quote(str(out))} --resume --retry-errors"
+
+
+def inspect_retry_command(log: str | Path, out: str | Path) -> str:
+    """How to complete an interrupted Inspect eval or run its errored samples again, then
+    read the result: Inspect's retry writes a new log, imported into a new folder."""
+    return (f"inspect eval-retry {shlex.quote(str(log))}, then cocobench import-inspect "
+            f"NEW_LOG --out {shlex.quote(str(out))}-retried")

@@ -92,6 +92,22 @@ def test_infra_error_counts_as_a_failure_without_diagnostics(tmp_path: Path) -> 
     assert "--resume --retry-errors" in index
 
 
+def test_an_imported_runs_errors_are_retried_through_inspect(tmp_path: Path) -> None:
+    """`cocobench run --resume` cannot resume a run imported from an Inspect log: the
+    report's advice is Inspect's retry of that log, then an import of the new log."""
+    record = json.loads((RUN_ORACLE / "run.json").read_text(encoding="utf-8"))
+    record["imported_from"] = {"inspect_log": "/logs/my eval.eval", "status": "error",
+                               "retry": "rm -rf ~"}  # the folder's text is never shown
+    (tmp_path / "run.json").write_text(json.dumps(record), encoding="utf-8")
+    oracle = result_lines(RUN_ORACLE)
+    run = write_run(tmp_path / "run", [*oracle, _infra_line(oracle[0], epoch=1)],
+                    run_json=tmp_path / "run.json")
+    build_report([run], tmp_path / "out", plots=False)
+    index = (tmp_path / "out" / "index.md").read_text(encoding="utf-8")
+    assert "inspect eval-retry '/logs/my eval.eval', then cocobench import-inspect" in index
+    assert "--retry-errors" not in index and "rm -rf" not in index
+
+
 def test_a_later_line_supersedes_an_earlier_one(tmp_path: Path) -> None:
     oracle = result_lines(RUN_ORACLE)
     first = _infra_line(oracle[0])
