@@ -1,8 +1,9 @@
 """The scorer: the episode's trajectory scored by the benchmark (`score_trajectory`, as
 `cocobench score` does), reported as named scores with Inspect's mean and bootstrap standard
-error. A value the episode has none of (the construct score of an unscored episode, legality
-outside D2, progress of a task without one) is NaN, which Inspect leaves out of that score's
-metrics: an unscored episode is not a zero, as in our reports."""
+error. A value the episode has none of (the construct score of an unscored episode, the
+legality of an episode that landed no step, progress of a task without one) is NaN, which
+Inspect leaves out of that score's metrics: an unscored episode is not a zero, as in our
+reports."""
 
 from __future__ import annotations
 

@@ -14,10 +14,19 @@ import dataclasses
 import time
 from typing import Any
 
-from inspect_ai.model import ModelOutput, get_model
+from inspect_ai.model import (
+    ChatMessage,
+    ChatMessageAssistant,
+    ChatMessageUser,
+    ContentText,
+    ModelOutput,
+    get_model,
+)
 from inspect_ai.solver import Generate, Solver, TaskState, solver
 
 from benchmark_adapter.metrics import EpisodeResult
+from benchmark_adapter.trajectory import PROMPTS_FIELD
+from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, run_episode
 from cocobench_agents.graphs import NO_MODEL, planner_spec
 from cocobench_agents.graphs.node_errors import PlannerNodeError
@@ -49,18 +58,19 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
             episode.spec, models=seat_models(episode), sample_index=key.epoch,
             episode_key=key.folder().removeprefix("episodes/"))
         started = time.perf_counter()
+        frames = sends_frames(episode)
         try:
             document, result = await run_episode(spec, ModelPool(settings),
                                                  controller=spec.controller())
         except PlannerNodeError as exc:
             if isinstance(exc.__cause__, InspectLimitReached):  # scored as it stands
                 limit = exc.__cause__.limit
-                state.store.set(TRAJECTORY, limit_ended(exc.document, limit))
+                _keep(state, limit_ended(exc.document, limit), frames)
                 raise limit from None  # Inspect ends the sample at its limit
-            state.store.set(TRAJECTORY, exc.document)
+            _keep(state, exc.document, frames)
             raise EpisodeInfraError(str(exc)) from None
         line = result_line(result, key, elapsed_s=time.perf_counter() - started)
-        state.store.set(TRAJECTORY, document)
+        _keep(state, document, frames)
         state.store.set(RESULT, line)
         state.output = ModelOutput.from_content(key.model, _summary(line))
         state.completed = True
@@ -69,6 +79,54 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
         return state
 
     return solve
+
+
+def _keep(state: TaskState, document: dict[str, Any], frames: bool) -> None:
+    """Keep the episode's trajectory in the sample's store and its model calls as the
+    sample's messages (what `inspect view` shows as the conversation)."""
+    state.store.set(TRAJECTORY, document)
+    state.messages = conversation(document, frames=frames)
+
+
+def sends_frames(episode: PlannedEpisode) -> bool:
+    """Whether each of the episode's model calls sent a frame with its prompt (an image
+    condition of a planner that calls a model: Inspect's models read images)."""
+    return episode.spec.obs_mode == IMAGE and planner_spec(episode.spec.planner).uses_models
+
+
+def conversation(document: dict[str, Any], *, frames: bool = False) -> list[ChatMessage]:
+    """An episode's model calls as chat messages, in the order they were decided: each
+    decision's prompt as a user message, the model's reply (where it gave one) as an
+    assistant message, both naming the deciding agent in their metadata (None: the team).
+
+    Each call is a conversation of its own (a prompt holds the history the model is shown),
+    so the messages are the calls one after the other, not one growing chat. A frame sent
+    with a prompt (`frames`) is a one-line text part saying so: the frames are the model
+    events' in the transcript, and a copy here would add an image per decision to the log."""
+    prompts = document.get(PROMPTS_FIELD) or {}
+    messages: list[ChatMessage] = []
+    for decision in document.get("planner_decisions") or []:
+        prompt = prompts.get(decision.get("prompt_hash"))
+        if prompt is None:  # a stop without a model call (an empty menu, the step budget)
+            continue
+        agent = decision.get("agent")
+        about = {"agent": agent, "step_index": decision.get("step_index"),
+                 "status": decision.get("status")}
+        messages.append(ChatMessageUser(
+            content=[ContentText(text=prompt), ContentText(text=frame_note(agent))]
+            if frames else prompt, metadata=about))
+        reply = decision.get("raw_output")
+        if reply is not None:
+            messages.append(ChatMessageAssistant(content=reply, model=decision.get("model"),
+                                                 metadata=about))
+    return messages
+
+
+def frame_note(agent: str | None) -> str:
+    """The text that stands for the frame a decision of `agent` sent (None: the team's)."""
+    view = "the team's merged view" if agent is None else f"{agent}'s view"
+    return (f"[image: {view}, sent as a PNG frame; not kept in the sample's messages, the "
+            "model event of the transcript shows it]")
 
 
 #: The terminal reason of an episode an Inspect usage limit ended.

@@ -4,6 +4,7 @@ Inspect's epochs are the episodes' epochs."""
 from __future__ import annotations
 
 import functools
+import itertools
 import logging
 from typing import Any
 
@@ -71,7 +72,7 @@ def cocobench(task: str | list[str] | None = None, suite: str | list[str] | None
     notice = sampling_notice(request.model_settings, run.episodes)
     if notice:
         logger.warning(notice)
-    planned = {sample_id(p): p for p in run.episodes}
+    planned = {sample_id(p): p for p in spread(run.episodes)}
     return Task(
         dataset=MemoryDataset([_sample(key, p) for key, p in planned.items()],
                               name="cocobench"),
@@ -90,6 +91,18 @@ def bounded_retries(settings: Any) -> GenerateConfig:
     ``--max-retries``, ``--attempt-timeout`` and ``--timeout`` override them."""
     return GenerateConfig(max_retries=settings.max_retries,
                           attempt_timeout=int(settings.timeout_s))
+
+
+def spread(episodes: list[PlannedEpisode]) -> list[PlannedEpisode]:
+    """The episodes taken in turn from each condition × arm: each one's first instance, then
+    each one's second, … . Inspect's ``--limit N`` runs the first N samples: in the plan's
+    order (condition, then arm, then instance) they were the first condition's and arm's
+    only. The order changes no sample id."""
+    cells: dict[tuple[str, str], list[PlannedEpisode]] = {}
+    for episode in episodes:
+        cells.setdefault((episode.key.condition, episode.key.arm), []).append(episode)
+    return [episode for turn in itertools.zip_longest(*cells.values()) for episode in turn
+            if episode is not None]
 
 
 def sample_id(planned: PlannedEpisode) -> str:
