@@ -2,16 +2,23 @@
 seat of CoCoBench through tool calls, so it can be trained with GRPO.
 
 TRL constructs the class without arguments, calls `reset(**example)` before each rollout
-(its string is appended to the last user message), offers every public method but `reset`
-and `get_reward` to the model as a tool (its schema read from the type hints and the
+(its string is appended to the last user message), offers every public function of the class
+but `reset` and `get_reward` to the model as a tool (its schema read from the type hints and the
 docstring's ``Args:``), turns an exception a tool raises into an ``{"error": …}`` reply the
 model reads, and scores the rollout with `get_reward()`. A configured class comes from
 `trl_environment(source, condition=…, seat=…, partner=…)`.
+
+TRL counts tool results against ``max_completion_length`` and ends a rollout's tool loop
+when one would overflow it, so a tool returns what changed since the last call (the calls
+that landed, the prompt's lines that are new, the menu ids that went), not the whole next
+prompt: on D1_blind a whole prompt is ~800 tokens, an episode's results ~18,000, its changes
+~1,500 (docs/environments.md).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import re
+from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 from benchmark_adapter.vocabulary import BLIND, DEMO_SUITE
@@ -19,11 +26,14 @@ from cocobench_agents.conditions import condition_name
 from cocobench_agents.envs.seat_env import SeatEnv
 from cocobench_agents.envs.seated import DONE, EnvError
 from cocobench_agents.graphs import DEFAULT_PLANNER, planner_spec
-from cocobench_agents.graphs.registry import LEADER_SEAT
+from cocobench_agents.graphs.registry import LEADER_SEAT, TEAM_SEAT
 from cocobench_agents.prompts import DEFAULT_SUITE
 
 #: What `reset` puts before the seat's first prompt, which TRL appends to the dataset's prompt.
 SEPARATOR = "\n\n"
+#: A line of the prompt's recent-actions list ("  3. Find(agent_1, Pen|…) -> ok"): renumbered
+#: as the list slides, so its calls are reported once, as landed, not as changed lines.
+HISTORY_LINE = re.compile(r"\s*\d+\. (.*)")
 
 
 class CoCoBenchTRLEnv:
@@ -52,6 +62,8 @@ class CoCoBenchTRLEnv:
         self._return = 0.0
         self._ended = True
         self._mask: Any = None  # the current decision's action mask
+        self._lines: set[str] = set()  # the prompt's lines at the last call
+        self._landed = 0  # how many of the seat's history entries were reported
 
     def reset(self, **example: Any) -> str:
         """Start an episode (on the instance an example's ``task_id`` names, else one drawn
@@ -60,8 +72,10 @@ class CoCoBenchTRLEnv:
         observation, _ = self._env.reset(seed=example.get("seed"), options=options)
         self._return, self._ended = 0.0, False
         self._mask = observation["action_mask"]
+        prompt = self._episode.prompt_text(self.seat)
+        self._lines, self._landed = set(prompt.splitlines()), len(self._history())
         # TRL appends this to the dataset's last user message: a blank line between them.
-        return SEPARATOR + observation["prompt"]
+        return SEPARATOR + prompt
 
     def act(self, action_id: int, message: str = "") -> str:
         """Take one action: the id of an entry of the action list in the prompt.
@@ -72,7 +86,8 @@ class CoCoBenchTRLEnv:
                 message board; leave empty otherwise).
 
         Returns:
-            The next prompt, or how the episode ended.
+            What changed: the calls that landed, the prompt's new lines, the menu ids gone;
+            or how the episode ended.
         """
         return self._step(action_id, message)
 
@@ -80,13 +95,63 @@ class CoCoBenchTRLEnv:
         """Declare that this robot (or the team) has nothing more to do.
 
         Returns:
-            The next prompt, or how the episode ended.
+            What changed: the calls that landed, the prompt's new lines, the menu ids gone;
+            or how the episode ended.
         """
         return self._step(DONE, "")
 
     def get_reward(self) -> float:
         """The rollout's return: the sum of the benchmark's weighted rewards so far."""
         return self._return
+
+    # A property, not a method: TRL offers every function of the class as a tool, and a
+    # model must not be able to close its own environment (TRL lists them on the class,
+    # where a property is not a function).
+    @property
+    def close(self) -> Callable[[], None]:
+        """Close the seat's environment (its partners' event loop and connections); a later
+        `reset` starts afresh. TRL never calls it: the environment also closes itself when
+        an episode ends. Call ``env.close()`` when done with an instance outside TRL."""
+        return self._env.close
+
+    @property
+    def _episode(self) -> Any:
+        return self._env.team._live()
+
+    def _history(self) -> list[str]:
+        """The seat's landed calls, oldest first ("call -> ok" / "call -> FAIL(…)"); the
+        team's seat sees every robot's."""
+        return self._episode._history(None if self.seat == TEAM_SEAT else self.seat)
+
+    def _changes(self, off_menu_ids: set[int]) -> str:
+        """What the seat's prompt says now that it did not at the last call."""
+        history = self._history()
+        landed = history[self._landed:] if len(history) >= self._landed else history
+        prompt = self._episode.prompt_text(self.seat)
+        lines = prompt.splitlines()
+        seen_calls = set(history)
+        menu = {line.strip() for line in self._episode.tools.menu_lines(
+            None if self.seat == TEAM_SEAT else self.seat)}
+        changed: list[str] = []
+        new_menu: list[str] = []
+        for line in lines:
+            if not line.strip() or line in self._lines:
+                continue
+            entry = HISTORY_LINE.fullmatch(line)
+            if entry and entry.group(1) in seen_calls:
+                continue  # reported as landed
+            (new_menu if line.strip() in menu else changed).append(line.strip())
+        self._lines, self._landed = set(lines), len(history)
+        parts = [f"Landed: {call}" for call in landed] or ["Landed: nothing"]
+        if changed:
+            parts.append("Changed:\n" + "\n".join(f"  {line}" for line in changed))
+        if new_menu:
+            parts.append("New on your menu:\n" + "\n".join(f"  {line}" for line in new_menu))
+        if off_menu_ids:
+            parts.append("Off your menu now: " + ", ".join(map(str, sorted(off_menu_ids))))
+        if not (changed or new_menu or off_menu_ids):
+            parts.append("Nothing else changed.")  # (the menu neither)
+        return "\n".join(parts)
 
     def _step(self, action_id: int, message: str) -> str:
         if self._ended:
@@ -100,10 +165,14 @@ class CoCoBenchTRLEnv:
                 "choice.\n\n" if off_menu else "")
         if terminated or truncated:
             self._ended = True
+            # TRL never closes its environments: the partners' loop and connections go now.
+            self._env.close()
             return (f"{note}The episode has ended ({info['terminal_reason']}): task success "
                     f"{info['task_success']}, goal progress {info['task_progress']}.")
+        before = set(map(int, self._mask.nonzero()[0]))
         self._mask = observation["action_mask"]
-        return note + observation["prompt"]
+        gone = {i + DONE for i in before - set(map(int, self._mask.nonzero()[0]))}
+        return note + self._changes(gone)
 
 
 def trl_environment(source: str, *, condition: str, seat: str, partner: str = "greedy",
