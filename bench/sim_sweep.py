@@ -1,6 +1,6 @@
 """The embedded simulator's invariant sweep (issue 41): random menu, off-menu and native steps
 on every instance of cocobench-full and every shared config, several seeds each, with every
-invariant of `benchmark_adapter.sim.embedded.invariants` checked after each step and each
+invariant of `benchmark_adapter.invariants` checked after each step and each
 episode replayed byte for byte. Prints the figures and every breach; exits 1 on a breach.
 
 Usage: python bench/sim_sweep.py [--seeds N] [--first-seed N] [--steps N] [--processes N]
@@ -16,7 +16,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from benchmark_adapter.sim.embedded.invariants import InvariantBroken, play
+from benchmark_adapter.invariants import InvariantBroken, play
 from benchmark_adapter.tasks import TaskConfig, load_task, load_tasks
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "cocobench-data" / "tasks"

@@ -45,6 +45,7 @@ HIDE = {
     "needs_inspect": (hide_module("inspect_ai"),
                       "inspect_ai is not installed (pip install -e '.[inspect]')"),
     "llm": (hide_module("xllamacpp"), "xllamacpp is not installed (pip install xllamacpp)"),
+    "vlm": (hide_module("gguf"), "gguf is not installed (pip install gguf==0.19.0)"),
     "needs_export": (hide_module("pyarrow"),
                      "pyarrow is not installed (pip install -e '.[export]' 'datasets>=4')"),
 }

@@ -28,7 +28,8 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
     "benchmark_adapter": (
         ("__init__",),
         ("generator",),  # scenes and templates → suites, through the gates
-        ("validation",),  # the placement, oracle and metric gates
+        ("validation", "invariants"),  # the placement, oracle and metric gates; the embedded
+        # world's invariants checked over random play (it plays Episodes)
         ("oracles",),  # reference plans, run through an Episode
         ("episode",),
         ("scene_setup", "menu_bound"),  # menu_bound: Γ's longest in the embedded world

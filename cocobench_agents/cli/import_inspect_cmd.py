@@ -14,7 +14,9 @@ def import_inspect_command(log: str, out: str) -> None:
     (needs the inspect extra): `cocobench view OUT` then shows its episodes."""
     try:
         from cocobench_agents.inspect_eval.convert import import_log
-    except ImportError:
+    except ModuleNotFoundError as missing:
+        if missing.name is None or missing.name.split(".")[0] != "inspect_ai":
+            raise  # our own code is broken: not a missing extra
         raise click.UsageError("reading Inspect logs needs inspect_ai: pip install "
                                "'cocobench-agents[inspect]'") from None
     from cocobench_agents.runfolder.errors import RunFolderWriteError

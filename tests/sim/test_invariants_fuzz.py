@@ -1,6 +1,6 @@
 """Invariant fuzz (issue 41): seeded random menu, off-menu and native steps on a sample of
 instances from every cell of cocobench-full and of the shared configs, every invariant of
-`benchmark_adapter.sim.embedded.invariants` checked after each step, the trajectory checked
+`benchmark_adapter.invariants` checked after each step, the trajectory checked
 for non-finite numbers and replayed byte for byte. The full sweep is `bench/sim_sweep.py`."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import itertools
 
 import pytest
 
+from benchmark_adapter.invariants import InvariantBroken, play
 from benchmark_adapter.sim.embedded import actions
-from benchmark_adapter.sim.embedded.invariants import InvariantBroken, play
 from benchmark_adapter.sim.embedded.world import World
 from benchmark_adapter.tasks import TaskConfig, load_task, load_tasks
 from tests.paths import SHARED_TASKS
