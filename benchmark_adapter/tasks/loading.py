@@ -108,7 +108,7 @@ def read_json(path: str | Path) -> Any:
         raise from_json_error(path, exc) from exc
     except RecursionError:  # deeper than Python's own limit
         raise _too_deep(path) from None
-    if _depth_exceeds(data, MAX_JSON_DEPTH):
+    if depth_exceeds(data, MAX_JSON_DEPTH):
         raise _too_deep(path)
     if too_long:
         _refuse_long_integers(path, data)
@@ -192,14 +192,16 @@ def file_kind(data: Any) -> str | None:
     return None
 
 
-def _depth_exceeds(data: Any, limit: int) -> bool:
-    """Whether arrays/objects nest more than `limit` levels (iterative: no recursion)."""
-    stack = [(data, 1)]
+def depth_exceeds(data: Any, limit: int) -> bool:
+    """Whether arrays/objects (mappings/lists) nest more than `limit` levels (iterative: no
+    recursion; each node once: a YAML config's aliases share nodes)."""
+    stack, seen = [(data, 1)], set()
     while stack:
         value, depth = stack.pop()
-        if isinstance(value, (dict, list)):
+        if isinstance(value, (dict, list)) and id(value) not in seen:
             if depth > limit:
                 return True
+            seen.add(id(value))
             children = value.values() if isinstance(value, dict) else value
             stack.extend((child, depth + 1) for child in children)
     return False

@@ -148,7 +148,9 @@ def read_config_file(path: Path) -> dict[str, Any]:
         raise ConfigError(f"{path}: not {_format(path)}: {_one_line(exc)}") from None
     except RecursionError:  # both parsers recurse per level of nesting
         raise _too_deep(path) from None
-    if _nested_deeper(values, MAX_CONFIG_DEPTH):
+    from benchmark_adapter.tasks.loading import depth_exceeds  # only when a file is read
+
+    if depth_exceeds(values, MAX_CONFIG_DEPTH):
         raise _too_deep(path)
     if values is None:
         return {}  # an empty file sets nothing
@@ -161,21 +163,6 @@ def read_config_file(path: Path) -> dict[str, Any]:
 def _too_deep(path: Path) -> ConfigError:
     return ConfigError(f"{path}: nested more than {MAX_CONFIG_DEPTH} levels deep (a run's "
                        "settings nest a few levels)")
-
-
-def _nested_deeper(value: Any, limit: int) -> bool:
-    """Whether mappings and lists nest more than `limit` levels in `value` (iterative, each
-    node once: YAML aliases share nodes)."""
-    stack, seen = [(value, 1)], set()
-    while stack:
-        item, depth = stack.pop()
-        if isinstance(item, (dict, list)) and id(item) not in seen:
-            if depth > limit:
-                return True
-            seen.add(id(item))
-            children = item.values() if isinstance(item, dict) else item
-            stack.extend((child, depth + 1) for child in children)
-    return False
 
 
 def _parse(path: Path, text: str) -> Any:
