@@ -3,7 +3,6 @@ real configs and on the built-in suites; they are deterministic; bad input is to
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -11,21 +10,13 @@ import pytest
 
 from tests.paths import SHARED_TASKS
 
-pytestmark = pytest.mark.needs_env
+pytestmark = [pytest.mark.needs_env, pytest.mark.usefixtures("quiet")]
 
 TASKS = str(SHARED_TASKS)
 REAL = "A_D1__FloorPlan1__seed0"  # agents agent_1, agent_2
 CONDITIONS = ("C0_blind", "D0_blind", "D1_blind", "LW_blind")
 #: (source, task_id): one real config, and a built-in suite (the instance drawn per reset).
 SOURCES = ((TASKS, REAL), ("demo", None))
-
-
-@pytest.fixture(autouse=True)
-def _quiet():
-    # PettingZoo's checkers warn about dict spaces, which the prompt text needs.
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        yield
 
 
 @pytest.mark.parametrize("condition", CONDITIONS)

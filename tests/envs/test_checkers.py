@@ -7,29 +7,18 @@ action space is a valid action."""
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
 
 from tests.paths import SHARED_TASKS
 
-pytestmark = [pytest.mark.needs_env, pytest.mark.slow]
+pytestmark = [pytest.mark.needs_env, pytest.mark.slow, pytest.mark.usefixtures("quiet")]
 
 TASKS = str(SHARED_TASKS)
 REAL = "A_D1__FloorPlan1__seed0"  # agents agent_1, agent_2
 CONDITIONS = [f"{code}_{mode}" for mode in ("blind", "image") for code in ("C0", "D0", "D1", "LW")]
 #: The learning seat `check_env` and the vector environments play, per planner code.
 SEATS = {"C0": "team", "D0": "agent_1", "D1": "agent_2", "LW": "agent_1"}
-
-
-@pytest.fixture(autouse=True)
-def _quiet():
-    # The checkers warn about dict and text spaces (the prompt needs them) and about reset's
-    # option {"options": 1}, which PettingZoo passes to check that options are taken.
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        yield
 
 
 @pytest.mark.parametrize("condition", CONDITIONS)

@@ -5,7 +5,6 @@ step at most its timeout and is counted in `info`, where the learner looks."""
 from __future__ import annotations
 
 import time
-import warnings
 
 import numpy as np
 import pytest
@@ -13,7 +12,7 @@ import pytest
 from tests.models.fake_openai import SERVER_ERROR, FakeOpenAI, ok
 from tests.paths import SHARED_TASKS
 
-pytestmark = pytest.mark.needs_env
+pytestmark = [pytest.mark.needs_env, pytest.mark.usefixtures("quiet")]
 
 TASKS = str(SHARED_TASKS)
 REAL = "A_D1__FloorPlan1__seed0"  # agents agent_1, agent_2
@@ -24,13 +23,6 @@ PARTNER = "openai/fake-model"
 def server():
     with FakeOpenAI() as fake:
         yield fake
-
-
-@pytest.fixture(autouse=True)
-def _quiet():
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        yield
 
 
 def seat_env(**options):
