@@ -2,7 +2,10 @@
 field of a result line, `run.json`, a trajectory or a prompt file set to a value of another
 type, nested deep, or a text with `..`, `/`, NUL, a lone surrogate or a code reference (to
 the canary planted in the folder, or the canary module); or the whole file replaced by bytes
-that are not JSON, or by a folder."""
+that are not JSON, or by a folder.
+
+The viewer's fuzz (tests/viewer/test_fuzz_run_folder.py) shares `Deep`, `dumps`,
+`every_text` and `field_paths`."""
 
 from __future__ import annotations
 
@@ -81,8 +84,9 @@ def documents(run: Path) -> dict[str, list[Path]]:
             "prompts": sorted(run.glob("episodes/**/prompts.json.gz"))}
 
 
-def field_paths(document: Any, depth: int = 7) -> list[tuple[Any, ...]]:
-    """The paths of the fields of a JSON document (lists: their first three items)."""
+def field_paths(document: Any, depth: int = 7, items: int = 3) -> list[tuple[Any, ...]]:
+    """The paths of the fields of a JSON document, `depth` keys deep at most (lists: their
+    first `items` items)."""
     out: list[tuple[Any, ...]] = []
 
     def walk(value: Any, path: tuple[Any, ...]) -> None:
@@ -94,7 +98,7 @@ def field_paths(document: Any, depth: int = 7) -> list[tuple[Any, ...]]:
             for key, item in value.items():
                 walk(item, (*path, key))
         elif isinstance(value, list):
-            for index, item in enumerate(value[:3]):
+            for index, item in enumerate(value[:items]):
                 walk(item, (*path, index))
 
     walk(document, ())
@@ -162,10 +166,10 @@ def _changed(mutation: Mutation, document: Any, places: dict[str, str]) -> bytes
     if mutation.op == "raw":
         return mutation.value
     if mutation.op == "every_text":
-        document = _every_text(document, _placed(mutation.value, places))
+        document = every_text(document, _placed(mutation.value, places))
     else:
         document = _at(document, mutation.path, mutation.op, _placed(mutation.value, places))
-    return _dumps(document)
+    return dumps(document)
 
 
 def _at(document: Any, path: tuple[Any, ...], op: str, value: Any) -> Any:
@@ -191,13 +195,14 @@ def _at(document: Any, path: tuple[Any, ...], op: str, value: Any) -> Any:
     return document
 
 
-def _every_text(value: Any, text: str) -> Any:
+def every_text(value: Any, text: str) -> Any:
+    """`value` with every text in it (not a key) replaced by `text`."""
     if isinstance(value, str):
         return text
     if isinstance(value, list):
-        return [_every_text(item, text) for item in value]
+        return [every_text(item, text) for item in value]
     if isinstance(value, dict):
-        return {key: _every_text(item, text) for key, item in value.items()}
+        return {key: every_text(item, text) for key, item in value.items()}
     return value
 
 
@@ -213,7 +218,7 @@ def _placed(value: Any, places: dict[str, str]) -> Any:
     return value
 
 
-def _dumps(document: Any) -> bytes:
+def dumps(document: Any) -> bytes:
     """JSON as Python writes it (NaN, lone surrogates as escapes), deep lists spliced in."""
     deep: list[Deep] = []
 

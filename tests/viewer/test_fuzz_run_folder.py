@@ -8,6 +8,7 @@ run folder that a code reference names, a module on `sys.path`) never run."""
 from __future__ import annotations
 
 import contextlib
+import copy
 import gzip
 import io
 import itertools
@@ -32,6 +33,7 @@ from cocobench_agents.viewer.local_server import LOG
 from cocobench_agents.viewer.pages import Pages
 from cocobench_agents.viewer.server import ViewerServer
 from cocobench_agents.viewer.source import Catalog
+from tests.readers.mutations import Deep, dumps, every_text, field_paths
 
 from .conftest import TASKS
 from .hostile import send
@@ -44,9 +46,8 @@ Path({mark!r}).write_text("ran")
 def build_x(): raise SystemExit("never")
 NAME = None
 """
-#: A nesting deeper than any JSON reader recurses (put in place of `DEEP` after dumping).
-DEEP = "\x00DEEP\x00"
-DEPTH = 100_000
+#: A nesting deeper than any JSON reader recurses.
+DEEP = Deep(100_000)
 #: How far below the examples' common folder each example lives: `..` repeated fewer times
 #: than this stays inside it, where the test can see what was written.
 NESTING = ("a", "b", "c", "d", "e", "f", "g", "h", "i", "j")
@@ -150,45 +151,10 @@ def values(run: Path) -> st.SearchStrategy[Any]:
         max_leaves=6)
 
 
-def field_paths(document: Any, limit: int = 6) -> list[tuple[Any, ...]]:
-    """Every path to a value of `document`, `limit` keys deep at most."""
-    paths: list[tuple[Any, ...]] = []
-
-    def walk(value: Any, path: tuple[Any, ...]) -> None:
-        if path:
-            paths.append(path)
-        if len(path) >= limit:
-            return
-        if isinstance(value, dict):
-            for key, item in value.items():
-                walk(item, (*path, key))
-        elif isinstance(value, list):
-            for index, item in enumerate(value[:4]):  # the first few items of long lists
-                walk(item, (*path, index))
-
-    walk(document, ())
-    return paths
-
-
 def set_at(document: Any, path: tuple[Any, ...], value: Any) -> None:
     for key in path[:-1]:
         document = document[key]
     document[path[-1]] = value
-
-
-def every_string(document: Any, text: str) -> Any:
-    """`document` with every string value (not key) replaced by `text`."""
-    if isinstance(document, str):
-        return text
-    if isinstance(document, list):
-        return [every_string(v, text) for v in document]
-    if isinstance(document, dict):
-        return {k: every_string(v, text) for k, v in document.items()}
-    return document
-
-
-def dumps(document: Any) -> str:
-    return json.dumps(document).replace(json.dumps(DEEP), "[" * DEPTH + "]" * DEPTH)
 
 
 class Mutated:
@@ -218,8 +184,8 @@ def mutated(draw: st.DrawFn, run: Path) -> list[Mutated]:
         document = files[name]
         kind = draw(st.sampled_from(["set", "set", "set", "strings", "append"]))
         if kind == "append" and name == "results.jsonl":
-            line = json.loads(json.dumps(draw(st.sampled_from(lines))))
-            path = draw(st.sampled_from(field_paths(line, 3)))
+            line = copy.deepcopy(draw(st.sampled_from(lines)))
+            path = draw(st.sampled_from(field_paths(line, 3, items=4)))
             value = draw(values(run))
             set_at(line, path, value)
             document.append(line)
@@ -228,12 +194,12 @@ def mutated(draw: st.DrawFn, run: Path) -> list[Mutated]:
             ref = draw(st.sampled_from(code_references(run)))
             if name == "results.jsonl":
                 index = draw(st.integers(0, len(document) - 1))
-                document[index] = every_string(document[index], ref)
+                document[index] = every_text(document[index], ref)
             else:
-                files[name] = every_string(document, ref)
+                files[name] = every_text(document, ref)
             what = f"every string = {ref!r}"
         else:
-            path = draw(st.sampled_from(field_paths(document)))
+            path = draw(st.sampled_from(field_paths(document, 6, items=4)))
             value = draw(values(run))
             set_at(document, path, value)
             what = f"{path} = {value!r:.200}"
@@ -243,12 +209,11 @@ def mutated(draw: st.DrawFn, run: Path) -> list[Mutated]:
 
 def write(run: Path, name: str, content: Any) -> None:
     if name == "results.jsonl":
-        text = "".join(dumps(line) + "\n" for line in content)
-        (run / name).write_text(text)
+        (run / name).write_bytes(b"".join(dumps(line) + b"\n" for line in content))
     elif name.endswith(".gz"):
-        (run / name).write_bytes(gzip.compress(dumps(content).encode()))
+        (run / name).write_bytes(gzip.compress(dumps(content)))
     else:
-        (run / name).write_text(dumps(content))
+        (run / name).write_bytes(dumps(content))
 
 
 # -- what the viewer must do ------------------------------------------------------------------
