@@ -18,7 +18,7 @@ import os
 import re
 import sys
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
@@ -121,17 +121,24 @@ def _refuse_lone_surrogates(path: str | Path, data: Any) -> None:
     """Refuse text that is not Unicode: a JSON escape of half a surrogate pair (``\\ud800``)
     decodes to a string that no UTF-8 file (a trajectory, a result line) can hold, so an
     episode of it could not be recorded."""
+    for value, where in _every_key_and_value(data):
+        if isinstance(value, str):
+            _check_text(path, value, where)
+
+
+def _every_key_and_value(data: Any) -> Iterator[tuple[Any, tuple[str, ...]]]:
+    """Each value of `data` (itself included) and each object's key, with the field it is in
+    (a key: its object's); iterative, an object's keys given when the object is."""
     stack: list[tuple[Any, tuple[str, ...]]] = [(data, ())]
     while stack:
         value, where = stack.pop()
+        yield value, where
         if isinstance(value, dict):
             for key, child in value.items():
-                _check_text(path, key, where)
-                stack.append((child, (*where, key)))
+                yield key, where
+                stack.append((child, (*where, str(key))))
         elif isinstance(value, list):
             stack.extend((child, (*where, str(i))) for i, child in enumerate(value))
-        elif isinstance(value, str):
-            _check_text(path, value, where)
 
 
 def _check_text(path: str | Path, text: str, where: tuple[str, ...]) -> None:
@@ -161,18 +168,12 @@ def _integer(literal: str, too_long: list[str]) -> int | str:
 
 def _refuse_long_integers(path: str | Path, data: Any) -> None:
     """Refuse the first `_LongInteger` of `data`, naming its field."""
-    stack: list[tuple[Any, tuple[str, ...]]] = [(data, ())]
-    while stack:
-        value, where = stack.pop()
+    for value, where in _every_key_and_value(data):
         if isinstance(value, _LongInteger):
             raise TaskConfigError(path, f"an integer of {len(value.lstrip('-'))} digits "
                                         f"(Python converts at most "
                                         f"{sys.get_int_max_str_digits()})",
                                   ".".join(where) or None)
-        if isinstance(value, dict):
-            stack.extend((child, (*where, str(key))) for key, child in value.items())
-        elif isinstance(value, list):
-            stack.extend((child, (*where, str(i))) for i, child in enumerate(value))
 
 
 def _too_deep(path: str | Path) -> TaskConfigError:
