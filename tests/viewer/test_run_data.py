@@ -18,6 +18,7 @@ from cocobench_agents.cli import main
 from cocobench_agents.viewer.pages import Pages
 from cocobench_agents.viewer.server import ViewerServer
 from cocobench_agents.viewer.source import Catalog
+from tests.readers.mutations import Deep, dumps
 
 from .hostile import send
 from .test_pages import listed, results
@@ -179,10 +180,7 @@ def _items_not_objects(doc: dict[str, Any]) -> None:
 
 
 def _deep_trajectory(doc: dict[str, Any]) -> None:
-    nested: Any = 0
-    for _ in range(100_000):
-        nested = [nested]
-    doc["trajectory"][0]["state"] = nested
+    doc["trajectory"][0]["state"] = Deep(100_000)
 
 
 def _evidence_of_wrong_type(line: dict[str, Any]) -> None:
@@ -234,7 +232,7 @@ def test_a_malformed_trajectory_gives_a_page_with_a_warning(
         path = run_copy / line["trajectory"]
         document = json.loads(path.read_text())
         TRAJECTORY_MUTATIONS[mutation](document)
-        path.write_text(_dumps(document))
+        path.write_bytes(dumps(document))
     bodies = check_served_and_exported(run_copy, tmp_path / "site")
     err = capsys.readouterr().err
     assert "Traceback" not in err
@@ -263,21 +261,6 @@ def test_a_seat_model_that_is_not_text_breaks_no_page(run_copy: Path, tmp_path: 
     append(run_copy, results(run_copy)[0] | {"models": {"agent_1": {"x": 1},
                                                         "agent_2": "greedy"}, "epoch": 1})
     check_served_and_exported(run_copy, tmp_path / "site")
-
-
-def _dumps(document: dict[str, Any]) -> str:
-    """JSON of a document nested deeper than `json.dumps` recurses."""
-    try:
-        return json.dumps(document)
-    except RecursionError:
-        state = document["trajectory"][0].pop("state")
-        depth = 0
-        while isinstance(state, list):
-            state, depth = state[0], depth + 1
-        text = json.dumps(document)
-        marker = '"step_index"'
-        at = text.index(marker)
-        return text[:at] + '"state": ' + "[" * depth + "0" + "]" * depth + ", " + text[at:]
 
 
 def test_a_results_file_that_cannot_be_read_is_one_line_or_kept(
