@@ -382,7 +382,7 @@ def _trajectory_problem(path: Path) -> str | None:
         return "missing"
     except OSError as exc:
         return f"unreadable ({exc.strerror or exc})"
-    except ValueError:  # orjson's error
+    except orjson.JSONDecodeError:
         return f"cut short ({size} bytes, not a whole JSON document)"
     return None if isinstance(document, dict) else "not a trajectory (a JSON object)"
 
