@@ -73,14 +73,10 @@ def _positive(kw: dict[str, Any], name: str, default: float) -> float:
     return value
 
 
-def _disabled(obj: SimObject) -> bool:
-    """A sliced source: AI2-THOR keeps it in the metadata but disables it (no colliders, not
-    visible), its pieces taking its place."""
-    return obj.is_sliced
-
-
 def _not_disabled(obj: SimObject) -> None:
-    _require(not _disabled(obj), f"{obj.id} is not interactable: it was sliced into pieces")
+    """Refuse a sliced source: AI2-THOR keeps it in the metadata but disables it (no
+    colliders, not visible), its pieces taking its place."""
+    _require(not obj.is_sliced, f"{obj.id} is not interactable: it was sliced into pieces")
 
 
 def _detach(world: World, obj: SimObject) -> None:
@@ -112,11 +108,10 @@ def _attach(world: World, obj: SimObject, receptacle: SimObject) -> None:
     )
 
 
-def _room_left(world: World, receptacle: SimObject) -> int:
-    """Free places of `receptacle`: its capacity less what lies in it (a sliced source
-    occupies none; its pieces each occupy one)."""
-    used = sum(1 for c in receptacle.contents if not _disabled(world.objects[c]))
-    return receptacle.aff.capacity - used
+def _room_left(receptacle: SimObject) -> int:
+    """Free places of `receptacle`: its capacity less what lies in it (a sliced source has
+    left it, `slice_object`; its pieces each occupy one)."""
+    return receptacle.aff.capacity - len(receptacle.contents)
 
 
 def sync_held(world: World, agent: SimAgent) -> None:
@@ -160,7 +155,7 @@ def put(world: World, agent: SimAgent, kw: dict[str, Any]) -> None:
         not world.lies_within(receptacle, held),
         f"{held.id} cannot be placed in {receptacle.id}, which lies inside {held.id}",
     )
-    if _room_left(world, receptacle) <= 0:
+    if _room_left(receptacle) <= 0:
         raise ActionFailed("No valid positions to place object found")
     held.held_by, agent.held = None, None
     _attach(world, held, receptacle)
@@ -294,7 +289,7 @@ def _settle(world: World, obj: SimObject) -> None:
     for receptacle in outer:
         lands = receptacle.y + receptacle.aff.height
         probe = SimObject(obj.id, obj.type, obj.x, lands, obj.z, obj.aff)
-        if within_bounds(probe, receptacle) and _room_left(world, receptacle) > 0:
+        if within_bounds(probe, receptacle) and _room_left(receptacle) > 0:
             receptacle.contents.append(obj.id)
             obj.parent = receptacle.id
             move_with_contents(world, obj, obj.x, lands, obj.z)
