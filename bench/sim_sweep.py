@@ -40,6 +40,9 @@ def sweep_one(job: tuple[TaskConfig, int, int]) -> dict:
         played = play(config, seed, steps)
     except InvariantBroken as exc:
         return {"task": config.task_id, "seed": seed, "breach": str(exc)}
+    except Exception as exc:  # noqa: BLE001 - a breach too: one episode never ends the sweep
+        return {"task": config.task_id, "seed": seed,
+                "breach": f"{config.task_id} seed {seed}: play raised {exc!r}"}
     return {"task": config.task_id, "seed": seed, "breach": None, "kinds": played.kinds,
             "refused": played.refused, "seconds": time.perf_counter() - start}
 

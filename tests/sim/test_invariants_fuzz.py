@@ -6,7 +6,10 @@ for non-finite numbers and replayed byte for byte. The full sweep is `bench/sim_
 from __future__ import annotations
 
 import functools
+import importlib.util
 import itertools
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -16,6 +19,7 @@ from benchmark_adapter.sim.embedded.world import World
 from benchmark_adapter.tasks import TaskConfig, load_task, load_tasks
 from tests.paths import SHARED_TASKS
 
+REPO = Path(__file__).resolve().parents[2]
 STEPS = 120
 PER_CELL = 2
 
@@ -72,3 +76,23 @@ def test_the_fuzz_finds_non_finite_numbers(monkeypatch: pytest.MonkeyPatch) -> N
                   if c.task_id == "A_D1__EmbKitchen02__store_groceries_3agent_seed0")
     with pytest.raises(InvariantBroken, match=r"non-finite|raised"):
         play(config, seed=0, steps=20)
+
+
+# -- the sweep counts an episode that fails any other way ---------------------------------
+
+def test_the_sweep_counts_an_episode_that_raises_as_a_breach(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = importlib.util.spec_from_file_location("sim_sweep", REPO / "bench" / "sim_sweep.py")
+    assert spec is not None and spec.loader is not None
+    sweep = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(sweep)
+
+    def planted(config: TaskConfig, seed: int, steps: int) -> None:
+        raise RuntimeError("planted fault")
+
+    monkeypatch.setattr(sweep, "play", planted)
+    monkeypatch.setattr(sys, "argv", ["sim_sweep.py", "--limit", "2", "--seeds", "1"])
+    assert sweep.main() == 1  # it ended with its figures, not a traceback
+    out = capsys.readouterr().out
+    assert "breaches 2" in out
+    assert "play raised RuntimeError('planted fault')" in out
