@@ -193,11 +193,13 @@ def _apply_checked(episode: Episode, step: tuple[str, Any]) -> bool:
 # -- invariants ---------------------------------------------------------------------------
 
 def state(world: World) -> str:
-    """Everything a step may change, but the agents' last action, as canonical text."""
-    objects = {oid: [o.x, o.y, o.z, o.is_open, o.is_toggled, o.is_sliced, o.is_dirty,
-                     o.is_filled, o.fill_liquid, o.is_broken, o.is_cooked, o.parent,
-                     o.contents, o.held_by] for oid, o in world.objects.items()}
-    agents = [[a.x, a.z, a.yaw, a.horizon, a.standing, a.held] for a in world.agents]
+    """Everything a step may change, as canonical text: every field of every object and
+    agent (a field added later included), but an object's affordances (fixed by its type)
+    and an agent's last action."""
+    objects = {oid: {k: v for k, v in vars(o).items() if k != "aff"}
+               for oid, o in world.objects.items()}
+    agents = [{k: v for k, v in vars(a).items() if not k.startswith("last_")}
+              for a in world.agents]
     return json.dumps({"objects": objects, "agents": agents}, sort_keys=True)
 
 

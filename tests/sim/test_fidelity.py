@@ -6,14 +6,13 @@ disabled; slicing what one holds is refused; capacity counts pieces."""
 from __future__ import annotations
 
 import copy
-import json
 import math
 
 import pytest
 
 from benchmark_adapter.episode import Episode
+from benchmark_adapter.invariants import state
 from benchmark_adapter.sim.embedded import EmbeddedController, ThorCompatController
-from benchmark_adapter.sim.embedded.world import World
 from benchmark_adapter.tasks import TaskConfig, load_task
 from benchmark_adapter.trajectory import dumps
 from tests.paths import SHARED_TASKS
@@ -21,15 +20,6 @@ from tests.sim.test_containment import KNIFE, MUG, PLATE, TOMATO, act, controlle
 
 COUNTER = "CounterTop|+00.00|+00.00|+01.00"
 POTATO = "Potato|+00.40|+00.95|+00.90"
-
-
-def state(world: World) -> str:
-    """Everything of the world a step may change, but its agents' last action."""
-    objects = {oid: {k: v for k, v in vars(o).items() if k != "aff"}
-               for oid, o in world.objects.items()}
-    agents = [{k: v for k, v in vars(a).items() if not k.startswith("last_")}
-              for a in world.agents]
-    return json.dumps({"objects": objects, "agents": agents}, sort_keys=True)
 
 
 # -- numbers ----------------------------------------------------------------------------------
