@@ -158,8 +158,11 @@ def _json(raw: bytes) -> Any:
     such a body, so both transports see the same reply (made writable by the client)."""
     try:
         return orjson.loads(raw)
-    except orjson.JSONDecodeError:
-        return json.loads(raw)
+    except orjson.JSONDecodeError as refused:
+        try:
+            return json.loads(raw)
+        except RecursionError:  # nested past Python's limit too: orjson's refusal stands
+            raise refused from None
 
 
 def _error_message(raw: bytes) -> str:

@@ -37,6 +37,17 @@ def test_a_body_that_is_not_a_completion_is_retried_then_transient(fake, fake_ke
     assert "not a chat completion" in info.value.message
 
 
+def test_a_body_nested_too_deep_to_read_is_a_malformed_completion(fake, fake_key):
+    # orjson refuses it (its depth limit); the standard library's reading, tried for a lone
+    # surrogate's escape, then raised a RecursionError: an "other" error, not retried.
+    fake.program(default=Behaviour(200, raw=b"[" * 100_000 + b"]" * 100_000))
+    with pytest.raises(ModelError) as info:
+        asyncio.run(http_client(fake).complete(ModelRequest("p")))
+    assert info.value.kind == "transient"
+    assert fake.count == 3  # 1 + max_retries
+    assert "not a chat completion" in info.value.message
+
+
 def test_the_pool_makes_http_clients_when_asked(fake, fake_key):
     pool = ModelPool(fast_settings(fake, transport="http"))
     client = pool.client("openai/fake-model", episode="e", agent=None)
