@@ -97,7 +97,8 @@ def command_request(given: Mapping[str, Any] | None = None, *,
     `config_file` over, with `resume`, the run recorded in the folder they name (``out``),
     over the defaults."""
     given = dict(given or {})
-    out = given.get("out") or (read_config_file(config_file).get("out") if config_file else None)
+    file_values = read_config_file(config_file) if config_file is not None else {}
+    out = given.get("out") or file_values.get("out")
     base = None
     if resume and out is not None:
         from cocobench_agents.engine.records import recorded_request
@@ -105,8 +106,7 @@ def command_request(given: Mapping[str, Any] | None = None, *,
 
         base = recorded_request(Path(out))
         if base is not None:  # planners that are code run only when named again
-            chosen = read_config_file(config_file) if config_file is not None else {}
-            check_recorded_code(base, {**chosen, **given})
+            check_recorded_code(base, {**file_values, **given})
     return layered_request(given, config_file=config_file, base=base)
 
 
