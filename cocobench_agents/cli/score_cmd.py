@@ -9,6 +9,7 @@ import click
 from benchmark_adapter.metrics import TrajectoryError, score_trajectory
 from benchmark_adapter.trajectory import load_trajectory
 from cocobench_agents.cli.tables import table
+from cocobench_agents.runfolder.errors import gist
 
 HEADERS = (
     "task_id",
@@ -43,7 +44,7 @@ def score_command(trajectories: tuple[str, ...], as_json: bool) -> None:
         except (TypeError, AttributeError, KeyError, IndexError, OverflowError) as exc:
             errors += 1
             click.echo(f"cocobench: error: {path}: not a trajectory the scorer can read (a "
-                       f"field of another type: {type(exc).__name__}: {_gist(exc)})", err=True)
+                       f"field of another type: {type(exc).__name__}: {gist(exc)})", err=True)
     if as_json:
         click.echo(json.dumps([r.model_dump(mode="json") for r in records], indent=2))
     elif records:
@@ -82,9 +83,3 @@ def _describe(exc: Exception) -> str:
     if isinstance(exc, UnicodeDecodeError):
         return f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start})"
     return str(exc)
-
-
-def _gist(exc: Exception) -> str:
-    """The first line of `exc`'s message, short."""
-    text = str(exc).splitlines()[0] if str(exc) else ""
-    return text[:160]
