@@ -140,6 +140,44 @@ def test_an_episode_the_worker_never_reports_is_ended_at_its_timeout(tmp_path, m
     assert multiprocessing.active_children() == []
 
 
+#: How many episodes this process (a forked worker: its own count) has been given.
+_GIVEN = [0]
+
+
+@pytest.mark.slow
+def test_an_overdue_episode_stops_its_worker_and_the_others_there_run_again(
+        tmp_path, monkeypatch, deadline):
+    """An episode past its timeout stops its worker while another episode is in flight
+    there: that one runs again alone, once, in a new worker (here it never reports either,
+    and is recorded as timed out the second time, `requeued` 1); nothing is lost."""
+    from cocobench_agents.harness import workers
+
+    real_run_one = workers.run_one
+
+    async def first_hangs_second_ends(*args: Any, **kwargs: Any) -> Any:
+        _GIVEN[0] += 1
+        if _GIVEN[0] == 2:  # ends after 0.7 s and its run: the third starts then, in flight
+            await asyncio.sleep(0.7)  # when the first is overdue (2 s), itself not (2.7 s)
+            return await real_run_one(*args, **kwargs)
+        await asyncio.Event().wait()
+
+    monkeypatch.setattr(workers, "run_one", first_hangs_second_ends)  # forked: inherited
+    monkeypatch.setattr(workers, "OVERDUE_GRACE_S", 1.5)
+    planned = plan(3)
+    folder = RunFolder(tmp_path / "run")
+    folder.create({"name": "overdue"})
+    WorkerProcesses().run(planned, folder, ModelPool(), ExecutionSettings(jobs=2, workers=1),
+                          bounds=Bounds(episode_timeout_s=0.5))
+    records = list(folder.results())
+    assert sorted(r["task_id"] for r in records) == sorted(p.key.task_id for p in planned)
+    timeout = "episode timed out after 0.5 s of wall-clock time (--episode-timeout)"
+    second, first, third = records  # in the order they ended
+    assert "requeued" not in second
+    assert first["infra_error"] == timeout and "requeued" not in first
+    assert third["infra_error"] == timeout and third["requeued"] == 1
+    assert multiprocessing.active_children() == []
+
+
 def test_a_worker_reports_an_episode_whose_result_it_cannot_make(tmp_path, monkeypatch,
                                                                  deadline):
     """Whatever escapes the episode in a worker (here its runner itself) is sent to the
