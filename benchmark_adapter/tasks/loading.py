@@ -195,14 +195,17 @@ def file_kind(data: Any) -> str | None:
 
 def depth_exceeds(data: Any, limit: int) -> bool:
     """Whether arrays/objects (mappings/lists) nest more than `limit` levels (iterative: no
-    recursion; each node once: a YAML config's aliases share nodes)."""
-    stack, seen = [(data, 1)], set()
+    recursion). A YAML config's aliases share nodes: a node is walked again only when met
+    deeper than before (at most `limit` times), so that sharing neither hides its depth nor
+    makes the walk exponential."""
+    stack: list[tuple[Any, int]] = [(data, 1)]
+    deepest: dict[int, int] = {}  # id of a node walked → the depth it was walked at
     while stack:
         value, depth = stack.pop()
-        if isinstance(value, (dict, list)) and id(value) not in seen:
+        if isinstance(value, (dict, list)) and deepest.get(id(value), 0) < depth:
             if depth > limit:
                 return True
-            seen.add(id(value))
+            deepest[id(value)] = depth
             children = value.values() if isinstance(value, dict) else value
             stack.extend((child, depth + 1) for child in children)
     return False

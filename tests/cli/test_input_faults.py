@@ -181,6 +181,41 @@ def test_a_config_file_nested_too_deep_is_one_line(capsys, tmp_path: Path, text:
         "a few levels)"]
 
 
+def alias_chain(links: int, depth: int) -> str:
+    """YAML settings nesting `links` × `depth` levels through aliases, each anchor met first
+    (the walk takes the last key first) where it is shallow: ``t1: *x1`` before ``x2``'s
+    reference to it at depth `depth`."""
+    def nest(inner: str) -> str:
+        return "{a: " * depth + inner + "}" * depth
+
+    lines = ["model_settings:", "  extra_params:", f"    x1: &x1 {nest('1')}"]
+    lines += [f"    x{i}: &x{i} {nest(f'*x{i - 1}')}" for i in range(2, links + 1)]
+    lines += [f"    t{i}: *x{i}" for i in range(links, 0, -1)]
+    return "\n".join(lines) + "\n"
+
+
+def test_a_config_file_nested_too_deep_through_aliases_is_one_line(capsys, tmp_path: Path
+                                                                   ) -> None:
+    # Each node was walked once, at the depth it was first met: 20 links of 60 (1,200 levels)
+    # passed, and the run ended in pydantic's "Circular reference detected" traceback.
+    config = tmp_path / "aliases.yaml"
+    config.write_text(alias_chain(20, 60))
+    code, _, err = run(capsys, "run", "--config", str(config), "--model", "greedy",
+                       "--out", str(tmp_path / "run"), "--dry-run")
+    assert code == 2 and err.strip().splitlines() == [
+        f"cocobench: error: {config}: nested more than 64 levels deep (a run's settings nest "
+        "a few levels)"]
+
+
+def test_the_depth_of_shared_nodes_is_walked_in_bounded_time() -> None:
+    from benchmark_adapter.tasks.loading import depth_exceeds
+
+    laughs: list = ["lol"] * 10
+    for _ in range(30):  # 10^30 leaves as a tree; 31 lists, each walked a few times
+        laughs = [laughs] * 10
+    assert not depth_exceeds(laughs, 64) and depth_exceeds(laughs, 30)
+
+
 def test_a_toml_config_file_nested_too_deep_is_one_line(capsys, tmp_path: Path) -> None:
     config = tmp_path / "deep.toml"
     config.write_text("models = " + "[" * 10_000 + "]" * 10_000)
