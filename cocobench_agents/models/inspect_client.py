@@ -112,7 +112,7 @@ class InspectClient(RemoteClient):
         name = type(exc).__name__
         if isinstance(exc, TimeoutError) or "Timeout" in name:
             return "timeout", False
-        if "Connection" in name or "Connect" in name:  # no answer: what LiteLLM retries
+        if "Connect" in name:  # (Connection…, Connect…) no answer: what LiteLLM retries
             return "transient", False
         return "other", False
 
