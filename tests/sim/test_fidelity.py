@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 
 import pytest
 
@@ -190,3 +191,18 @@ def test_the_issue_s_plate_holds_at_most_its_capacity_after_slicing() -> None:
     put_into(ctl, tomato, plate)
     assert act(ctl, "SliceObject", objectId=tomato)["lastActionSuccess"]
     assert len(ctl.world.objects[plate].contents) == 3  # was 4: the source and its pieces
+
+
+# -- positions from a task config's ids -------------------------------------------------------
+
+@pytest.mark.parametrize("position", ["+3000.00|+00.90|+00.00", "+00.00|+00.90|-300.00",
+                                      "nan|+00.90|+00.00", "+00.00|inf|+00.00"])
+def test_an_object_id_placed_beyond_any_scene_is_refused_at_reset(position: str) -> None:
+    """The floor grid spans every object: one id 3 km out took minutes and gigabytes to
+    ground (300 m: 14 s, 290 MB), a NaN or infinite one raised from inside the grid."""
+    config = copy.deepcopy(controller().config.model_dump())
+    config["init_state"]["objects"]["far"] = far = f"Apple|{position}"
+    ctl = EmbeddedController(TaskConfig.model_validate(config))
+    with pytest.raises(ValueError, match=rf"^{re.escape(far)} lies at .*: not within 50 m "
+                                         "of the scene's origin$"):
+        ctl.reset()

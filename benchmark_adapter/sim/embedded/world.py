@@ -22,6 +22,10 @@ AGENT_RADIUS = 0.2  # two agents collide when closer than twice this
 # Metres: no scene is near this large, so a coordinate beyond it is off every floor (and the
 # grid arithmetic on it cannot overflow).
 MAX_COORDINATE = 1e4
+# Metres from the origin: AI2-THOR's scenes lie within about 10 m of it (every config here
+# within 7.3 m). The floor grid spans every object, so an id placing one further (a task
+# config's `Apple|+3000.00|…`) would take minutes and gigabytes to build (300 m: 14 s).
+MAX_SCENE_COORDINATE = 50.0
 # Put slots lie 0.08 m apart around a receptacle's position, three to a row (`_attach`); a
 # content lies within its receptacle's slots plus this margin (metres, horizontally).
 SLOT_SPACING, CONTENT_MARGIN = 0.08, 0.12
@@ -251,7 +255,13 @@ def referenced_ids(objects: dict[str, str], init_actions: list[dict]) -> list[st
 
 
 def build_floor(objects: list[SimObject], margin: float = 1.25) -> frozenset[tuple[int, int]]:
-    """Walkable cells: the objects' bounding box plus a margin, minus furniture footprints."""
+    """Walkable cells: the objects' bounding box plus a margin, minus furniture footprints.
+    `ValueError` naming an object that lies beyond `MAX_SCENE_COORDINATE` or at no finite
+    position (its id says so)."""
+    for obj in objects:
+        if not all(abs(v) <= MAX_SCENE_COORDINATE for v in (obj.x, obj.y, obj.z)):  # NaN too
+            raise ValueError(f"{obj.id} lies at ({obj.x:g}, {obj.y:g}, {obj.z:g}): not "
+                             f"within {MAX_SCENE_COORDINATE:g} m of the scene's origin")
     return _floor(tuple((o.x, o.z, o.aff.footprint) for o in objects), margin)
 
 
