@@ -42,6 +42,8 @@ from cocobench_agents.runfolder.result_line import line_error, line_identity
 RESULTS = "results.jsonl"
 RUN_FILE = "run.json"
 PROMPTS_FILE = "prompts.json.gz"
+#: The most an episode's prompts may inflate to (no run comes near it): more is refused.
+MAX_PROMPTS_BYTES = 256 * 2**20
 SHOWN_PROBLEMS = 10  # problems of a results file named one by one; the rest are counted
 #: The temporary files of this folder's atomic writes (`tempfile.mkstemp`'s random part).
 _TEMPORARY = re.compile(r"\.(trajectory\.json|prompts\.json\.gz|run\.json)\.[^/]+\.tmp")
@@ -201,7 +203,7 @@ class RunFolder:
         key = episode if isinstance(episode, EpisodeKey) else _episode_of_line(episode)
         path = self.inside(f"{key.folder()}/{PROMPTS_FILE}")
         try:
-            prompts = json_text(gzip.decompress(path.read_bytes()))
+            prompts = json_text(inflate_prompts(path.read_bytes()))
         except FileNotFoundError:
             return {}
         except (OSError, EOFError, ValueError, RecursionError, zlib.error) as exc:  # damaged
@@ -394,6 +396,17 @@ def _episode_of_line(line: Mapping[str, Any]) -> EpisodeKey:
     except (KeyError, TypeError, ValueError) as exc:
         raise TypeError("expected an EpisodeKey or a result line of results.jsonl (with "
                         f"model, condition, task_id): {type(exc).__name__}: {exc}") from None
+
+
+def inflate_prompts(raw: bytes) -> bytes:
+    """An episode's gzip'd prompts inflated, `MAX_PROMPTS_BYTES` at most (`ValueError` past
+    it; `zlib.error` when damaged): a compression bomb in a shared run folder would exhaust
+    a reader's memory."""
+    inflate = zlib.decompressobj(wbits=zlib.MAX_WBITS | 16)  # gzip
+    text = inflate.decompress(raw, MAX_PROMPTS_BYTES)
+    if inflate.unconsumed_tail:
+        raise ValueError(f"inflates past {MAX_PROMPTS_BYTES // 2**20} MiB")
+    return text
 
 
 def _compressed(prompts: dict[str, str]) -> bytes:

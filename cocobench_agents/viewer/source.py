@@ -17,15 +17,18 @@ from typing import Any
 
 from cocobench_agents.runfolder.episode_key import EpisodeKey, model_slug, result_key
 from cocobench_agents.runfolder.errors import RunFolderError
-from cocobench_agents.runfolder.folder import PROMPTS_FILE, RESULTS, RUN_FILE, RunFolder
+from cocobench_agents.runfolder.folder import (
+    PROMPTS_FILE,
+    RESULTS,
+    RUN_FILE,
+    RunFolder,
+    inflate_prompts,
+)
 from cocobench_agents.runfolder.result_line import line_error
 from cocobench_agents.viewer.errors import ViewerError
 from cocobench_agents.viewer.paths import path_part
 
 SHOWN_PROBLEMS = 5  # junk lines named one by one on the page; the rest are counted
-#: The most an episode's prompts may inflate to: a file that inflates to more is shown as
-#: no prompts kept (a compression bomb in a shared run folder would exhaust the memory).
-MAX_PROMPTS_BYTES = 256 * 2**20
 
 
 @dataclass
@@ -155,11 +158,7 @@ class RunSource:
         if path is None:
             return {}  # absent, or a link out of the run folder
         try:
-            inflate = zlib.decompressobj(wbits=zlib.MAX_WBITS | 16)  # gzip
-            text = inflate.decompress(path.read_bytes(), MAX_PROMPTS_BYTES)
-            if inflate.unconsumed_tail:
-                return {}  # more than any run writes (a compression bomb)
-            prompts = json.loads(text)
+            prompts = json.loads(inflate_prompts(path.read_bytes()))  # bounded: no bomb
         except (OSError, ValueError, RecursionError, zlib.error):  # nested too deep, damaged
             return {}
         if not isinstance(prompts, dict):

@@ -11,6 +11,7 @@ import resource
 import signal
 import subprocess
 import sys
+import zlib
 from pathlib import Path
 
 import pytest
@@ -86,6 +87,21 @@ def test_a_damaged_trajectory_is_named(capsys, run_copy, tmp_path):
     error = one_error(capsys, run_copy, "--out", tmp_path / "ds")
     assert f"{run_copy / line['trajectory']}: unreadable" in error
     assert not (tmp_path / "ds").exists()  # what it had written is removed
+
+
+@pytest.mark.slow
+@pytest.mark.needs_export
+def test_prompts_inflating_past_the_bound_are_named_not_read(capsys, run_copy, tmp_path):
+    """A `prompts.json.gz` of 300 KB that inflates to 300 MiB (a compression bomb in a shared
+    run folder) is refused at 256 MiB, naming the file: it was inflated whole into memory."""
+    line = result_lines(run_copy)[3]
+    bomb = zlib.compressobj(9, zlib.DEFLATED, zlib.MAX_WBITS | 16)  # gzip
+    zeros = bytes(2**20)
+    prompts = (run_copy / line["trajectory"]).parent / "prompts.json.gz"
+    prompts.write_bytes(b"".join(bomb.compress(zeros) for _ in range(300)) + bomb.flush())
+    error = one_error(capsys, run_copy, "--out", tmp_path / "ds")
+    assert error.endswith(f"{prompts}: unreadable (inflates past 256 MiB)"), error
+    assert not (tmp_path / "ds").exists()
 
 
 def test_without_pyarrow_the_error_names_the_install(played_run, tmp_path):

@@ -284,11 +284,11 @@ def test_prompts_inflating_past_the_bound_are_not_read(run_copy: Path,
                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     """A `prompts.json.gz` is inflated up to `MAX_PROMPTS_BYTES` only (a compression bomb in
     a shared folder would exhaust the memory): past it, the page says no prompt was kept."""
-    from cocobench_agents.viewer import source
+    from cocobench_agents.runfolder import folder
     from cocobench_agents.viewer.timeline import NO_PROMPT
 
     pages = Pages.create(Catalog([run_copy]), live=False)
     episode = pages.catalog.episodes()[0]
     assert NO_PROMPT not in pages.episode(episode)
-    monkeypatch.setattr(source, "MAX_PROMPTS_BYTES", 1000)  # the real prompts inflate past it
+    monkeypatch.setattr(folder, "MAX_PROMPTS_BYTES", 1000)  # the real prompts inflate past it
     assert NO_PROMPT in pages.episode(episode)
