@@ -27,11 +27,16 @@ class EpisodeKey:
     #: so that a single-suite run's folders and result lines are those of before arms.
     arm: str = ""
 
+    def parts(self) -> list[str]:
+        """The names of its folder below `episodes/`: model, condition, arm (when it has
+        one), task id with its epoch."""
+        leaf = self.task_id if self.epoch == 0 else f"{self.task_id}@e{self.epoch}"
+        arm = [model_slug(self.arm)] if self.arm else []
+        return [model_slug(self.model), self.condition, *arm, leaf]
+
     def folder(self) -> str:
         """Where its trajectory lives, relative to the run folder."""
-        leaf = self.task_id if self.epoch == 0 else f"{self.task_id}@e{self.epoch}"
-        arm = f"/{model_slug(self.arm)}" if self.arm else ""
-        return f"episodes/{model_slug(self.model)}/{self.condition}{arm}/{leaf}"
+        return "/".join(["episodes", *self.parts()])
 
     def as_dict(self) -> dict[str, Any]:
         out = {"model": self.model, "condition": self.condition, "task_id": self.task_id,

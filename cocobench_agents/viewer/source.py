@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.runfolder.episode_key import EpisodeKey, model_slug, result_key
+from cocobench_agents.runfolder.episode_key import EpisodeKey, result_key
 from cocobench_agents.runfolder.errors import RunFolderError
 from cocobench_agents.runfolder.folder import (
     PROMPTS_FILE,
@@ -45,11 +45,7 @@ class Episode:
         """Its page's path below the viewer's root (the same live and exported): the parts
         of its trajectory's folder, each a plain name (`paths.path_part`), so that a key such
         as `../../x` names a page inside the root like any other."""
-        key = self.key
-        leaf = key.task_id if key.epoch == 0 else f"{key.task_id}@e{key.epoch}"
-        parts = [model_slug(key.model), key.condition, *([model_slug(key.arm)] if key.arm
-                                                        else []), leaf]
-        return f"episode/{self.run}/{'/'.join(map(path_part, parts))}.html"
+        return f"episode/{self.run}/{'/'.join(map(path_part, self.key.parts()))}.html"
 
 
 @dataclass
