@@ -9,8 +9,8 @@ docs/planners.md).
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from cocobench_agents.models.retry import RetryPolicy
@@ -72,6 +72,9 @@ class PlannerSpec:
     # The most model calls one seat makes in a round (a step, for "step"): a strategy that
     # asks a robot again within a round declares how often (claim-board: 2).
     calls_per_seat: int = 1
+    # Its own prompt templates (name → default text), which `ctx.ask` renders: part of the
+    # prompt suite (a suite folder's NAME.txt replaces one; the suite's hash covers them).
+    templates: Mapping[str, str] = field(default_factory=dict, hash=False)
 
     @property
     def prompt_kind(self) -> str:
