@@ -1,7 +1,11 @@
 """Point estimates with percentile-bootstrap confidence intervals.
 
-Every estimate resamples *episodes* with replacement (`resamples` times, default 2000) and
-takes the 2.5th and 97.5th percentiles of the resampled statistic. Each call starts its own
+Every estimate resamples with replacement (`resamples` times, default 2000) and takes the
+2.5th and 97.5th percentiles of the resampled statistic. What is resampled is the *cluster*:
+given `clusters` (one label per value, e.g. the instance an episode ran), all values of a
+cluster are drawn together (a clustered bootstrap, as repeated epochs of one instance are not
+independent); without, or when every cluster holds one value (one epoch), each value is its
+own cluster and the interval is the plain bootstrap's, draw for draw. Each call starts its own
 generator from the same fixed seed, so an interval depends only on the values passed in, never
 on which tables were computed before it: reports are byte-for-byte reproducible (NumPy's
 legacy `RandomState`, whose streams are frozen across NumPy versions, is used for that).
@@ -9,7 +13,9 @@ legacy `RandomState`, whose streams are frozen across NumPy versions, is used fo
 The resampling is vectorised. For values with few distinct levels (0/1 successes, integer step
 counts, paired differences in {-1, 0, 1}) the resampled counts of each level are drawn from a
 multinomial distribution, which is exactly the distribution of an index bootstrap but costs
-O(levels) instead of O(n) per resample; other values are resampled by index in chunks.
+O(levels) instead of O(n) per resample; other values are resampled by index in chunks. A
+clustered estimate works from per-cluster sums and sizes, with the same shortcut over the
+distinct (sum, size) pairs. See docs/statistics.md.
 """
 
 from __future__ import annotations
@@ -106,10 +112,44 @@ def clean(values: Sequence[float] | np.ndarray) -> np.ndarray:
     return x[~np.isnan(x)]
 
 
-def mean_ci(values: Sequence[float] | np.ndarray, boot: Bootstrap | None = None) -> Estimate:
-    """Mean of the non-missing values with its bootstrap interval (NA when none)."""
+def cluster_codes(labels: Sequence[object] | np.ndarray) -> np.ndarray:
+    """Integer codes 0..k-1 of the labels, numbered in order of first appearance (so that
+    one value per cluster numbers them 0..n-1 in their own order)."""
+    labels = np.asarray(labels).ravel()
+    if labels.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
+    rank = np.empty(first.size, dtype=np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(first.size)
+    return rank[inverse.ravel()]
+
+
+def cluster_totals(values: Sequence[float] | np.ndarray, clusters: Sequence[object] | np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Per cluster (in order of first appearance): the sum and the number of its non-missing
+    values; clusters with none are left out. For 0/1 successes: successes and trials per
+    instance, what `pass_hat_k` and `pass_at_k` take."""
+    x = np.asarray(values, dtype=np.float64).ravel()
+    keep = ~np.isnan(x)
+    codes = cluster_codes(np.asarray(clusters).ravel()[keep])
+    k = int(codes.max()) + 1 if codes.size else 0
+    return (np.bincount(codes, weights=x[keep], minlength=k),
+            np.bincount(codes, minlength=k).astype(np.float64))
+
+
+def mean_ci(values: Sequence[float] | np.ndarray, boot: Bootstrap | None = None,
+            clusters: Sequence[object] | np.ndarray | None = None) -> Estimate:
+    """Mean of the non-missing values with its bootstrap interval (NA when none).
+
+    `clusters` (one label per value, e.g. the instance of each episode): the interval
+    resamples clusters, each with all its values (the mean is still over values)."""
     boot = boot or Bootstrap()
-    x = clean(values)
+    if clusters is None:
+        x, codes = clean(values), None
+    else:
+        raw = np.asarray(values, dtype=np.float64).ravel()
+        keep = ~np.isnan(raw)
+        x, codes = raw[keep], cluster_codes(np.asarray(clusters).ravel()[keep])
     n = x.size
     if n == 0:
         return NA
@@ -117,7 +157,12 @@ def mean_ci(values: Sequence[float] | np.ndarray, boot: Bootstrap | None = None)
     levels, counts = np.unique(x, return_counts=True)
     if levels.size == 1:
         return Estimate(value, value, value, n)
-    means = _resampled_means(x, levels, counts, boot)
+    if codes is not None and int(codes.max()) + 1 < n:  # some cluster holds several values
+        k = int(codes.max()) + 1
+        means = _resampled_ratios(np.bincount(codes, weights=x, minlength=k),
+                                  np.bincount(codes, minlength=k).astype(np.float64), boot)
+    else:
+        means = _resampled_means(x, levels, counts, boot)
     lo, hi = boot.interval(means)
     # Percentile intervals of very skewed data can, in rare cases, miss the estimate itself.
     return Estimate(value, min(lo, value), max(hi, value), n)
@@ -144,6 +189,26 @@ def _resampled_means(x: np.ndarray, levels: np.ndarray, counts: np.ndarray,
     return out
 
 
+def _resampled_ratios(sums: np.ndarray, sizes: np.ndarray, boot: Bootstrap) -> np.ndarray:
+    """Σ sums / Σ sizes over each resample of the clusters (a clustered bootstrap of a mean).
+    The statistic depends only on how many clusters of each distinct (sum, size) pair are
+    drawn, which is multinomial: with few distinct pairs (0/1 outcomes over a few epochs)
+    that is drawn instead of indices."""
+    k = sums.size
+    pairs, counts = np.unique(sums + 1j * sizes, return_counts=True)  # (sum, size) pairs
+    if pairs.size * 4 <= k:
+        draws = boot.rng().multinomial(k, counts / k, size=boot.resamples).astype(np.float64)
+        return (draws @ pairs.real) / (draws @ pairs.imag)
+    rng = boot.rng()
+    out = np.empty(boot.resamples)
+    step = max(1, _CHUNK_ELEMENTS // k)
+    for start in range(0, boot.resamples, step):
+        stop = min(boot.resamples, start + step)
+        idx = rng.randint(0, k, size=(stop - start, k), dtype=np.int32)
+        out[start:stop] = sums[idx].sum(axis=1) / sizes[idx].sum(axis=1)
+    return out
+
+
 @functools.lru_cache(maxsize=32)
 def _index_matrix(seed: int, resamples: int, n: int) -> np.ndarray:
     """The resample indices a fresh generator draws for n values (the same for every
@@ -154,30 +219,37 @@ def _index_matrix(seed: int, resamples: int, n: int) -> np.ndarray:
 
 
 def paired_diff_ci(a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndarray,
-                   boot: Bootstrap | None = None) -> Estimate:
-    """Mean of a − b over the pairs where both are present (a paired bootstrap)."""
+                   boot: Bootstrap | None = None,
+                   clusters: Sequence[object] | np.ndarray | None = None) -> Estimate:
+    """Mean of a − b over the pairs where both are present (a paired bootstrap; with
+    `clusters`, one label per pair, clustered as `mean_ci`)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
-    return mean_ci(a - b, boot).as_delta()
+    return mean_ci(a - b, boot, clusters).as_delta()
 
 
 def pearson_ci(x: Sequence[float] | np.ndarray, y: Sequence[float] | np.ndarray,
-               boot: Bootstrap | None = None) -> Estimate:
+               boot: Bootstrap | None = None,
+               clusters: Sequence[object] | np.ndarray | None = None) -> Estimate:
     """Pearson correlation over the episodes where both values are present (see
     `correlation_matrix`)."""
-    return correlation_matrix([x, y], boot)[0][1]
+    return correlation_matrix([x, y], boot, clusters)[0][1]
 
 
 def correlation_matrix(columns: Sequence[Sequence[float] | np.ndarray],
-                       boot: Bootstrap | None = None) -> list[list[Estimate]]:
+                       boot: Bootstrap | None = None,
+                       clusters: Sequence[object] | np.ndarray | None = None
+                       ) -> list[list[Estimate]]:
     """Pairwise Pearson correlations of equally long columns (one value per episode, NaN for
     missing), each pair over the episodes where both are present (n = those episodes).
 
     Intervals resample episodes: each resample draws n_total episodes with replacement once
     for all pairs and recomputes every r over the drawn episodes where both values are
     present. Resample weights times per-episode moments give every pair's sums in one matrix
-    product. NA (value None) with fewer than 3 pairs or a constant variable; resamples in
-    which r is undefined are left out of the interval. The diagonal is exactly 1.
+    product. With `clusters` (one label per episode), clusters are resampled instead, each
+    with its episodes' summed moments. NA (value None) with fewer than 3 pairs or a constant
+    variable; resamples in which r is undefined are left out of the interval. The diagonal is
+    exactly 1.
     """
     boot = boot or Bootstrap()
     data = np.column_stack([np.asarray(c, dtype=np.float64).ravel() for c in columns])
@@ -203,7 +275,14 @@ def correlation_matrix(columns: Sequence[Sequence[float] | np.ndarray],
                 valid.append((i, j))
     if not valid:
         return out
-    sums = _resampled_sums(np.column_stack(features), boot)
+    moments = np.column_stack(features)
+    if clusters is not None:
+        codes = cluster_codes(clusters)
+        k = int(codes.max()) + 1
+        if k < codes.size:  # some cluster holds several episodes
+            moments = np.stack([np.bincount(codes, weights=c, minlength=k)
+                                for c in moments.T], axis=1)
+    sums = _resampled_sums(moments, boot)
     for p, (i, j) in enumerate(valid):
         rs = _r_from_sums(sums[:, 6 * p:6 * p + 6])
         rs = rs[~np.isnan(rs)]
@@ -252,6 +331,40 @@ def _pearson(x: np.ndarray, y: np.ndarray) -> float | None:
     if sxx <= 1e-12 * max(float(x @ x), 1e-300) or syy <= 1e-12 * max(float(y @ y), 1e-300):
         return None
     return float(np.clip((dx @ dy) / math.sqrt(sxx * syy), -1.0, 1.0))
+
+
+def pass_hat_k(successes: Sequence[float] | np.ndarray, trials: Sequence[float] | np.ndarray,
+               k: int) -> np.ndarray:
+    """pass^k per instance: the unbiased estimate, from c successes in n trials, of the
+    chance that k fresh trials all succeed, C(c, k) / C(n, k) (tau-bench's pass^k); NaN
+    where n < k. The benchmark's pass^k is the mean over instances."""
+    c, n = _counts(successes, trials, k)
+    out = np.ones(c.shape)
+    for i in range(k):
+        out *= np.clip(c - i, 0.0, None) / np.maximum(n - i, 1.0)
+    out[n < k] = np.nan
+    return out
+
+
+def pass_at_k(successes: Sequence[float] | np.ndarray, trials: Sequence[float] | np.ndarray,
+              k: int) -> np.ndarray:
+    """pass@k per instance: the unbiased estimate, from c successes in n trials, of the
+    chance that at least one of k fresh trials succeeds, 1 − C(n − c, k) / C(n, k) (Chen et
+    al. 2021, the Codex paper); NaN where n < k."""
+    c, n = _counts(successes, trials, k)
+    return 1.0 - pass_hat_k(n - c, n, k)
+
+
+def _counts(successes: Sequence[float] | np.ndarray, trials: Sequence[float] | np.ndarray,
+            k: int) -> tuple[np.ndarray, np.ndarray]:
+    if k < 1:
+        raise ValueError("k must be at least 1")
+    c = np.asarray(successes, dtype=np.float64).ravel()
+    n = np.asarray(trials, dtype=np.float64).ravel()
+    if c.shape != n.shape or np.any(c < 0) or np.any(c > n):
+        raise ValueError("successes and trials must be equally long, with 0 <= successes "
+                         "<= trials")
+    return c, n
 
 
 def total(values: Sequence[float] | np.ndarray) -> float | None:
