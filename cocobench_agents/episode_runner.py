@@ -122,8 +122,8 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
     carries the trajectory up to there (written to the path too)."""
     planner = planner_spec(spec.planner)
     episode = Episode(spec.config, controller)
-    tools = EpisodeTools(episode, load_prompt_suite(spec.prompt_suite), obs_mode=spec.obs_mode,
-                         stable_ids=spec.stable_ids)
+    tools = EpisodeTools(episode, load_prompt_suite(spec.prompt_suite, planner.templates),
+                         obs_mode=spec.obs_mode, stable_ids=spec.stable_ids)
     tools.on_step = on_step
     context = PlannerContext(
         tools=tools, clients=make_clients(spec, pool), budget=spec.budget,

@@ -6,6 +6,7 @@ from collections.abc import Generator
 from dataclasses import dataclass, field
 
 from benchmark_adapter.skills import SkillResult
+from cocobench_agents.graphs.model_calls import recording_clients
 from cocobench_agents.models.protocol import ModelClient
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.tools import EpisodeTools
@@ -23,6 +24,10 @@ class PlannerContext:
     retry_policy: RetryPolicy = field(default_factory=RetryPolicy)
     oracle_plan: Generator[str, SkillResult | None, None] | None = None  # the oracle's plan
     last_result: SkillResult | None = None  # what the oracle's previous call did
+
+    def __post_init__(self) -> None:
+        # A call made with a client directly, not through `decide` or `ask`, is recorded too.
+        self.clients = recording_clients(self.clients, self.tools)
 
     def client_for(self, agent: str | None) -> ModelClient:
         """The model that decides for `agent` (None: the team's planner)."""

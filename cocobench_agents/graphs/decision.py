@@ -14,6 +14,7 @@ from typing import Any
 
 from benchmark_adapter.menu import MenuEntry
 from cocobench_agents.graphs.context import PlannerContext
+from cocobench_agents.graphs.model_calls import unrecorded
 from cocobench_agents.models.protocol import EpisodeHalt, ModelError, ModelReply, ModelRequest
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import parse_message, parse_reply
@@ -38,7 +39,7 @@ async def decide(ctx: PlannerContext, agent: str | None, *, policy: str,
     """Ask `agent`'s model (the team's model when None) for its next action, retrying
     transient failures under `retry` (default: the context's `retry_policy`)."""
     tools = ctx.tools
-    client = ctx.client_for(agent)
+    client = unrecorded(ctx.client_for(agent))  # recorded here, not by the client
     prompt, images, menu = tools.prompt(agent, history, messages, broadcast,
                                         with_images=accepts_images(client))
     if not menu:

@@ -17,6 +17,7 @@ from langgraph.runtime import Runtime
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decentralized import add_round, fan_out
 from cocobench_agents.graphs.decision import accepts_images
+from cocobench_agents.graphs.model_calls import unrecorded
 from cocobench_agents.graphs.nodes import continue_or_end
 from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
 from cocobench_agents.models.protocol import ModelError, ModelReply, ModelRequest
@@ -38,7 +39,7 @@ async def ask_leader(ctx: PlannerContext, history: list[str]) -> dict[str, str]:
     prompt, images = ctx.tools.leader_prompt(history, accepts_images(client))
     try:
         request = ModelRequest(prompt=prompt, images=images, sample_index=ctx.sample_index)
-        reply = await ctx.retry_policy.complete(client, request)
+        reply = await ctx.retry_policy.complete(unrecorded(client), request)  # recorded below
     except ModelError as error:  # a silent leader leaves the workers on their own
         return record_directives(ctx.tools, client.name, prompt, error=error)
     return record_directives(ctx.tools, client.name, prompt, reply=reply)

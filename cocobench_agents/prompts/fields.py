@@ -7,6 +7,7 @@ table when it loads: a typo in a field name is reported then, not in the middle 
 
 from __future__ import annotations
 
+import re
 import string
 
 from benchmark_adapter.vocabulary import OBSERVATION_MODES
@@ -40,15 +41,30 @@ TEMPLATE_FIELDS: dict[str, frozenset[str]] = {
     "hint_relay": frozenset({"buffer", "producer", "consumer", "targets"}),
 }
 
+#: The fields `ctx.ask` fills in a planner's own template, besides those the strategy gives:
+#: the deciding agent's view (`me`, `inv`), or the team's (`state`) when it asks for the team;
+#: `menu` lists the ask's choices. The section fields follow the suite's variants.
+ASK_FIELDS = frozenset({"me", "n", "agents", "view", "goal", "progress_section", "hint",
+                        "history_section", "inv", "state", "menu"})
+#: A planner's own template's name: a file name of a suite folder (`NAME.txt`).
+OWN_TEMPLATE_NAME = re.compile(r"[a-z][a-z0-9_]{0,63}")
+
 # Sample values for the trial rendering at load time (`n` is the one number).
 _SAMPLE = {"n": 2}
 
 
-def field_problem(key: str, text: str) -> str | None:
-    """What is wrong with template `key`'s text as a format string, or None."""
-    allowed = TEMPLATE_FIELDS[key]
+def own_template_fields(default: str) -> frozenset[str]:
+    """The fields a planner's own template may use: those `ctx.ask` fills, and those its
+    default text uses (which the strategy gives)."""
+    return ASK_FIELDS | field_names(default)
+
+
+def field_problem(key: str, text: str, allowed: frozenset[str] | None = None) -> str | None:
+    """What is wrong with template `key`'s text as a format string, or None; `allowed`: its
+    fields (default: the suite template's)."""
+    allowed = TEMPLATE_FIELDS[key] if allowed is None else allowed
     try:
-        used = _field_names(text)
+        used = field_names(text)
     except ValueError as exc:
         return f"{exc} (write {{{{ or }}}} for a literal brace)"
     unknown = sorted(used - allowed)
@@ -62,12 +78,13 @@ def field_problem(key: str, text: str) -> str | None:
     return None
 
 
-def _field_names(text: str) -> set[str]:
-    """The field names `text` uses, including those nested in format specs."""
+def field_names(text: str) -> frozenset[str]:
+    """The field names `text` uses, including those nested in format specs (a `ValueError`
+    for a malformed format string)."""
     names: set[str] = set()
     for _, name, spec, _ in string.Formatter().parse(text):
         if name is not None:
             names.add(name)
         if spec:
-            names |= _field_names(spec)
-    return names
+            names |= field_names(spec)
+    return frozenset(names)

@@ -74,6 +74,43 @@ def render_distributed(suite: PromptSuite, inputs: PromptInputs, me: str, broadc
     )
 
 
+def render_own(suite: PromptSuite, template: str, inputs: PromptInputs, me: str | None,
+               fields: Mapping[str, object], *, placeholders: bool = False) -> str:
+    """A planner's own `template` (`PlannerSpec.templates`), as `ctx.ask` renders it: the
+    strategy's `fields` over the view of agent `me` (the team's when None; `ASK_FIELDS`),
+    whose `menu` is `inputs.menu_lines`. A field neither gives is a `ValueError` naming it; with
+    `placeholders`, it is shown as `{name}` (a preview: the strategy's fields are unknown)."""
+    view = _team_fields(suite, inputs) if me is None else _agent_fields(suite, inputs, me)
+    values = {**view, **fields}
+    if placeholders:
+        values = _Placeholders(values)
+    try:
+        return suite.templates[template].format_map(values)
+    except KeyError as exc:
+        if template not in suite.templates:
+            raise ValueError(f"no template {template!r} in prompt suite {suite.spec} (a "
+                           f"planner's own templates: {', '.join(sorted(suite.own)) or 'none'}; "
+                           "declare it in the PlannerSpec's templates)") from None
+        raise ValueError(f"template {template!r} uses the field {{{exc.args[0]}}}, which was not "
+                       f"given (given: {', '.join(sorted(fields)) or 'none'}; filled: "
+                       f"{', '.join(sorted(view))})") from None
+
+
+class _Placeholders(dict):
+    def __missing__(self, key: str) -> str:
+        return f"{{{key}}}"
+
+
+def _agent_fields(suite: PromptSuite, inputs: PromptInputs, me: str) -> dict[str, object]:
+    """The fields of agent `me`'s view a planner's own template may use."""
+    return {"me": me, "n": len(inputs.agents), "agents": ", ".join(inputs.agents),
+            "view": suite.render(view_template(inputs.obs_mode, "distributed")),
+            "goal": inputs.goal_text, "progress_section": _progress(suite, inputs),
+            "hint": _hint(inputs), "menu": "\n".join(inputs.menu_lines),
+            "history_section": _history(suite, inputs, "distributed"),
+            "inv": _holding(inputs.inventories.get(me))}
+
+
 def _progress(suite: PromptSuite, inputs: PromptInputs) -> str:
     if "no-progress" in suite.variants:
         return ""

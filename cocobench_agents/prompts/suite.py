@@ -18,7 +18,12 @@ from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.prompts.fields import TEMPLATE_FIELDS, field_problem
+from cocobench_agents.prompts.fields import (
+    OWN_TEMPLATE_NAME,
+    TEMPLATE_FIELDS,
+    field_problem,
+    own_template_fields,
+)
 
 DEFAULT_SUITE = "cocobench-v1"
 SUITE_FILE = "suite.json"
@@ -50,6 +55,9 @@ class PromptSuite:
     settings: dict[str, Any] = field(default_factory=dict)
     path: str | None = None  # the folder's absolute path; None for a shipped suite
     digests: dict[str, str] = field(default_factory=dict)  # file name → sha256
+    # The planners' own templates it holds (`PlannerSpec.templates`): each the suite folder's
+    # `NAME.txt` when it has one, else the planner's default text.
+    own: frozenset[str] = frozenset()
 
     @property
     def spec(self) -> str:
@@ -94,12 +102,17 @@ def available_suites() -> list[str]:
     return sorted(p.name for p in root.iterdir() if p.is_dir() and (p / SUITE_FILE).is_file())
 
 
-def load_prompt_suite(spec: str = DEFAULT_SUITE) -> PromptSuite:
-    """Load `NAME|PATH[+variant…]`: a shipped suite by name, else a suite folder.
+def load_prompt_suite(spec: str = DEFAULT_SUITE,
+                      templates: Mapping[str, str] | None = None) -> PromptSuite:
+    """Load `NAME|PATH[+variant…]`: a shipped suite by name, else a suite folder, with the
+    planners' own `templates` (name → default text; `PlannerSpec.templates`): a suite
+    folder's `NAME.txt` replaces a default, and the content hash covers them.
 
     Any problem (unknown name or variant, missing folder, file or template, malformed
     suite.json, unknown `{field}`) raises `PromptSuiteError` naming the file and the field.
     """
+    own = dict(templates or {})
+    _check_own(own)
     base, variants = _split_spec(spec)
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown:
@@ -109,12 +122,52 @@ def load_prompt_suite(spec: str = DEFAULT_SUITE) -> PromptSuite:
         contents, path = _read_shipped(base), None
     else:
         folder = _suite_folder(base)
-        contents, path = _read_folder(folder, str(folder)), str(folder)
-    meta, templates, digests = contents
+        contents, path = _read_folder(folder, str(folder), own), str(folder)
+    meta, found, digests = contents
+    found, digests = dict(found), dict(digests)
+    for name, default in own.items():
+        if name not in found:  # not replaced by the folder's file: the planner's default
+            found[name] = default
+            digests[f"{name}.txt"] = hashlib.sha256(default.encode("utf-8")).hexdigest()
     return PromptSuite(name=Path(path).name if path else base,
-                       version=str(meta.get("version", "")), templates=dict(templates),
+                       version=str(meta.get("version", "")), templates=found,
                        variants=frozenset(variants), settings=dict(meta), path=path,
-                       digests=dict(digests))
+                       digests=digests, own=frozenset(own))
+
+
+def merged_templates(planners: Mapping[str, Mapping[str, str]]) -> dict[str, str]:
+    """The own templates of several planners (planner name → its templates) as one suite
+    holds them; two planners giving one template name different texts are refused."""
+    merged: dict[str, str] = {}
+    owner: dict[str, str] = {}
+    for planner, templates in planners.items():
+        for name, text in templates.items():
+            if name in merged and merged[name] != text:
+                raise PromptSuiteError(
+                    f"planners {owner[name]} and {planner} both declare the template "
+                    f"{name!r}, with different texts; rename one of them")
+            merged[name], owner[name] = text, owner.get(name, planner)
+    return merged
+
+
+def _check_own(templates: Mapping[str, Any]) -> None:
+    """Refuse a planner's own template that no suite folder could hold or override."""
+    for name, text in templates.items():
+        where = f"planner template {name!r}"
+        if not isinstance(name, str) or not OWN_TEMPLATE_NAME.fullmatch(name):
+            raise PromptSuiteError(f"{where}: a template's name is lower-case letters, "
+                                   f"digits and _, starting with a letter (its file NAME.txt)")
+        if name in TEMPLATE_FIELDS or name == SUITE_FILE.removesuffix(".json"):
+            raise PromptSuiteError(f"{where}: the name of a suite template; choose another")
+        if not isinstance(text, str):
+            raise PromptSuiteError(f"{where}: its default must be a string, not "
+                                   f"{type(text).__name__}")
+        try:
+            problem = field_problem(name, text, own_template_fields(text))
+        except ValueError as exc:  # a malformed default: no field list to check against
+            problem = str(exc)
+        if problem:
+            raise PromptSuiteError(f"{where}: {problem}")
 
 
 def shipped_suite_files(name: str) -> dict[str, bytes]:
@@ -184,10 +237,10 @@ def _read_shipped(name: str) -> tuple[dict[str, Any], dict[str, str], dict[str, 
     return _read_folder(folder, str(folder))
 
 
-def _read_folder(folder: Traversable, shown: str
+def _read_folder(folder: Traversable, shown: str, own: Mapping[str, str] | None = None
                  ) -> tuple[dict[str, Any], dict[str, str], dict[str, str]]:
-    """suite.json, the templates and every file's sha256, checked; `shown` names the folder
-    in errors."""
+    """suite.json, the templates (the suite's, and files of the planners' `own` ones) and
+    every file's sha256, checked; `shown` names the folder in errors."""
     files = {p.name: p for p in folder.iterdir() if p.is_file() and _is_suite_file(p.name)}
     if SUITE_FILE not in files:
         raise PromptSuiteError(f"{shown}/{SUITE_FILE}: missing (a prompt suite folder holds "
@@ -198,7 +251,7 @@ def _read_folder(folder: Traversable, shown: str
     except OSError as exc:
         raise PromptSuiteError(f"{shown}: cannot read {exc.filename}: {exc.strerror}") from None
     meta = _settings(raw[SUITE_FILE], f"{shown}/{SUITE_FILE}")
-    templates = _templates(raw, shown)
+    templates = _templates(raw, shown, own or {})
     digests = {name: hashlib.sha256(data).hexdigest() for name, data in raw.items()}
     return meta, templates, digests
 
@@ -226,22 +279,27 @@ def _settings(data: bytes, shown: str) -> dict[str, Any]:
     return meta
 
 
-def _templates(raw: Mapping[str, bytes], shown: str) -> dict[str, str]:
+def _templates(raw: Mapping[str, bytes], shown: str, own: Mapping[str, str]
+               ) -> dict[str, str]:
     names = {name.removesuffix(".txt") for name in raw if name != SUITE_FILE}
-    extra = sorted(names - TEMPLATE_FIELDS.keys())
+    extra = sorted(names - TEMPLATE_FIELDS.keys() - own.keys())
     if extra:
+        planners = (f"; the planners' own: {', '.join(sorted(own))}" if own else
+                    "; a planner's own template is read only with that planner")
         raise PromptSuiteError(f"{shown}/{extra[0]}.txt: not a template of a prompt suite "
-                               f"(templates: {', '.join(TEMPLATE_FIELDS)})")
+                               f"(templates: {', '.join(TEMPLATE_FIELDS)}{planners})")
     for key in TEMPLATE_FIELDS:
         if key not in names:
             raise PromptSuiteError(f"{shown}/{key}.txt: template missing")
+    allowed = {**TEMPLATE_FIELDS, **{name: own_template_fields(default)
+                                      for name, default in own.items() if name in names}}
     templates = {}
-    for key in TEMPLATE_FIELDS:
+    for key, fields in allowed.items():
         try:
             text = raw[f"{key}.txt"].decode("utf-8")
         except UnicodeDecodeError as exc:
             raise PromptSuiteError(f"{shown}/{key}.txt: not UTF-8 text ({exc})") from None
-        problem = field_problem(key, text)
+        problem = field_problem(key, text, fields)
         if problem:
             raise PromptSuiteError(f"{shown}/{key}.txt: {problem}")
         templates[key] = text

@@ -27,6 +27,7 @@ from cocobench_agents.prompts import (
     render_centralized,
     render_distributed,
     render_leader,
+    render_own,
 )
 from cocobench_agents.tools.decisions import prompt_hash
 
@@ -111,32 +112,44 @@ class EpisodeTools:
         """
         view = self._menu_view(agent)
         menu = view.entries
-        inputs = self._inputs(view, history, messages)
+        inputs = self._inputs(view.lines, history, messages)
         if agent is None:
             text = render_centralized(self.suite, inputs)
         else:
             text = render_distributed(self.suite, inputs, agent, broadcast)
-        return self._kept(text), self.images(agent) if with_images else (), menu
+        return self.keep(text), self.images(agent) if with_images else (), menu
 
     def leader_prompt(self, history: Sequence[str], with_images: bool = True
                       ) -> tuple[str, tuple[bytes, ...]]:
         """The leader–worker strategy's leader prompt and images (the team view)."""
-        inputs = self._inputs(self._menu_view(None), history, ())
-        text = self._kept(render_leader(self.suite, inputs))
+        inputs = self._inputs(self._menu_view(None).lines, history, ())
+        text = self.keep(render_leader(self.suite, inputs))
         return text, self.images(None) if with_images else ()
 
-    def _kept(self, prompt: str) -> str:
+    def ask_prompt(self, agent: str | None, template: str, fields: Mapping[str, object],
+                   options: Sequence[MenuOption], history: Sequence[str] = (),
+                   with_images: bool = True) -> tuple[str, tuple[bytes, ...]]:
+        """A planner's own `template` rendered for `agent` (None: the team) with the
+        strategy's `fields`, its `{menu}` listing `options` (``id: call``), and its images;
+        kept like every prompt (`ctx.ask`)."""
+        lines = [f"{o.action_id}: {o.call}" for o in options]
+        inputs = self._inputs(lines, history, ())
+        text = self.keep(render_own(self.suite, template, inputs, agent, fields))
+        return text, self.images(agent) if with_images else ()
+
+    def keep(self, prompt: str) -> str:
+        """`prompt`, kept with the trajectory under its `prompt_hash`."""
         # Decisions record a prompt by its hash; the text goes with the trajectory (the run
         # folder stores it compressed), so what a model saw can be read back.
         self.prompts.setdefault(prompt_hash(prompt), prompt)
         return prompt
 
-    def _inputs(self, view: _MenuView, history: Sequence[str],
+    def _inputs(self, menu_lines: Sequence[str], history: Sequence[str],
                 messages: Sequence[Mapping[str, str]]) -> PromptInputs:
         snap = self.snapshot
         return PromptInputs(
             agents=self.agents, goal_text=snap.goal_text, progress_text=snap.progress_text,
-            hint=self.hint, menu_lines=view.lines,
+            hint=self.hint, menu_lines=menu_lines,
             history=history, inventories=snap.inventories, obs_mode=self.obs_mode,
             messages=messages,
         )
