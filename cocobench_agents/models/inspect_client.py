@@ -20,6 +20,7 @@ from typing import Any
 
 from .errors import ModelConfigError
 from .failures import is_context_window_message, status_code, status_kind
+from .openai_http import token_prices
 from .protocol import EpisodeHalt, ModelReply, ModelRequest
 from .remote import Completion, RemoteClient
 from .secrets import redact
@@ -100,7 +101,7 @@ class InspectClient(RemoteClient):
             text=output.completion or "",
             prompt_tokens=prompt_tokens(usage),
             completion_tokens=usage.output_tokens if usage else 0,
-            cost_usd=(usage.total_cost or 0.0) if usage else 0.0)
+            cost_usd=call_cost(str(model), usage))
 
     def classify(self, exc: BaseException) -> tuple[str, bool]:
         """What a failure Inspect gave up on was; never transient (Inspect retried it)."""
@@ -207,6 +208,22 @@ def prompt_tokens(usage: Any) -> int:
         return 0
     return (usage.input_tokens + (usage.input_tokens_cache_read or 0)
             + (usage.input_tokens_cache_write or 0))
+
+
+def call_cost(model: str, usage: Any) -> float:
+    """The call's cost in USD: Inspect's own where it priced the call (its model cost
+    config), else priced from LiteLLM's cost map as `cocobench run` prices it, by the model's
+    name (``openai/gpt-4o``) or its last part (``openai-api/SERVICE/gpt-4o``); 0 for a model
+    neither prices. Without this, every Inspect decision cost 0."""
+    if usage is None:
+        return 0.0
+    if usage.total_cost is not None:
+        return float(usage.total_cost)
+    for name in (model, model.rsplit("/", 1)[-1]):
+        price_in, price_out = token_prices(name)
+        if price_in or price_out:
+            return prompt_tokens(usage) * price_in + usage.output_tokens * price_out
+    return 0.0
 
 
 def chat_messages(messages: list[dict[str, Any]]) -> list[Any]:

@@ -1,7 +1,9 @@
 """One meaning at both doors, against one OpenAI-compatible server on 127.0.0.1: every key of
 `-T extra` reaches the server as `cocobench run --extra` sends it (``top_k`` too, which
-Inspect's OpenAI providers would drop), and a decision's prompt tokens count the provider's
-cached prefix at both doors (Inspect counts it apart)."""
+Inspect's OpenAI providers would drop); a decision's prompt tokens count the provider's
+cached prefix at both doors (Inspect counts it apart); its cost is priced alike; a reply of
+either door's cache is billed alike; an unsent temperature is warned of and a misspelt seat
+refused at both."""
 
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ from typing import Any
 
 import pytest
 
+from cocobench_agents.models.openai_http import token_prices
 from tests.faults.test_model_faults import Provider
 from tests.models.fake_openai import Behaviour, completion_body
 
@@ -26,6 +29,7 @@ EXTRA = {"top_k": 20, "top_p": 0.9, "min_p": 0.05, "repeat_penalty": 1.1,
 ASKED = {"messages", "model", "stream", "stream_options", "n", "max_tokens", "temperature",
          "seed", "tools", "tool_choice"}
 PROMPT, CACHED, COMPLETION = 900, 600, 4
+MODEL = "gpt-4o-mini"  # a model LiteLLM's cost map prices: the cost is counted at both doors
 DONE = "REASON: nothing left to do\nACTION: DONE"
 
 
@@ -53,83 +57,81 @@ def _sampling(body: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in body.items() if k not in ASKED}
 
 
-def test_extra_keys_and_cached_tokens_mean_the_same_at_both_doors(
-        tmp_path: Path, provider: Provider, monkeypatch):
-    from inspect_ai import eval as inspect_eval
-    from inspect_ai.log import read_eval_log
-
-    from cocobench_agents.inspect_eval.solver import TRAJECTORY
-    from cocobench_agents.inspect_eval.task import cocobench
-
-    task = config_paths()[0]
+def _our_door(task: str, provider: Provider, out: Path, cache: Path
+              ) -> list[dict[str, Any]]:
+    """The decisions of `cocobench run` (http transport, --extra, --cache) of a C0_blind
+    episode of `task` against `provider`."""
     done = subprocess.run(
         [sys.executable, "-m", "cocobench_agents.cli", "run", "--task", task, "--model",
-         "openai/healthy", "--conditions", "C0_blind", "--max-steps", "2", "--transport",
+         f"openai/{MODEL}", "--conditions", "C0_blind", "--max-steps", "2", "--transport",
          "http", "--api-base", provider.base_url, "--api-key-env", "FAKE_API_KEY",
-         "--extra", json.dumps(EXTRA), "--temperature", "0", "--out", str(tmp_path / "run")],
+         "--extra", json.dumps(EXTRA), "--temperature", "0", "--cache", str(cache),
+         "--out", str(out)],
         capture_output=True, text=True, check=False, timeout=300,
         env={**subprocess_env(), "FAKE_API_KEY": "sk-fake-doors-0001"})
     assert done.returncode == 0, done.stderr[-3000:]
-    ours = _decisions(provider)
-    [line] = [json.loads(x) for x in (tmp_path / "run" / "results.jsonl").read_text()
-              .splitlines()]
-    trajectory = json.loads((tmp_path / "run" / line["trajectory"]).read_text())
-
-    provider.program()
-    model = f"{openai_api(monkeypatch, provider.base_url)}/healthy"
-    [log] = inspect_eval(cocobench, task_args={"task": task, "conditions": "C0_blind",
-                                               "max_steps": 2, "extra": EXTRA,
-                                               "temperature": 0},
-                         model=model, log_dir=str(tmp_path / "logs"),
-                         display="none")
-    [sample] = read_eval_log(log.location).samples
-    assert sample.error is None, sample.error
-    theirs = _decisions(provider)
-
-    # every key of --extra / -T extra reached the server, with the same value
-    assert ours and len(ours) == len(theirs)
-    for a, b in zip(ours, theirs):
-        assert _sampling(a) == _sampling(b) == EXTRA, (a, b)
-    # the cached prefix counted in the prompt's tokens, decision by decision
-    decisions = sample.store[TRAJECTORY]["planner_decisions"]
-    assert [d["prompt_tokens"] for d in decisions] == \
-        [d["prompt_tokens"] for d in trajectory["planner_decisions"]] == [PROMPT] * len(ours)
-    assert [d["completion_tokens"] for d in decisions] == [COMPLETION] * len(ours)
+    [line] = [json.loads(x) for x in (out / "results.jsonl").read_text().splitlines()]
+    return json.loads((out / line["trajectory"]).read_text())["planner_decisions"]
 
 
-def test_a_reply_of_inspects_cache_is_a_cached_reply(tmp_path: Path, provider: Provider,
-                                                       monkeypatch):
-    """Inspect's ``--cache``: the second eval's decisions come from Inspect's cache, and are
-    recorded as our cache's are: ``cached``, billed 0 tokens, what they cost kept as saved."""
+def _inspect_door(task: str, model: str, logs: Path) -> list[dict[str, Any]]:
+    """The decisions of `inspect eval` (-T extra, --cache) of the same episode."""
     from inspect_ai import eval as inspect_eval
     from inspect_ai.log import read_eval_log
 
     from cocobench_agents.inspect_eval.solver import TRAJECTORY
     from cocobench_agents.inspect_eval.task import cocobench
 
-    model = f"{openai_api(monkeypatch, provider.base_url)}/healthy"
-    monkeypatch.setenv("INSPECT_CACHE_DIR", str(tmp_path / "cache"))
-    args = {"task": config_paths()[0], "conditions": "C0_blind", "max_steps": 2,
-            "temperature": 0}
+    [log] = inspect_eval(cocobench, task_args={"task": task, "conditions": "C0_blind",
+                                               "max_steps": 2, "extra": EXTRA,
+                                               "temperature": 0},
+                         model=model, log_dir=str(logs), display="none", cache=True)
+    [sample] = read_eval_log(log.location).samples
+    assert sample.error is None, sample.error
+    return sample.store[TRAJECTORY]["planner_decisions"]
 
-    def decisions() -> list[dict[str, Any]]:
-        [log] = inspect_eval(cocobench, task_args=args, model=model,
-                             log_dir=str(tmp_path / "logs"), display="none", cache=True)
-        [sample] = read_eval_log(log.location).samples
-        assert sample.error is None, sample.error
-        return sample.store[TRAJECTORY]["planner_decisions"]
 
-    first = decisions()
-    called = len(_decisions(provider))
-    assert called == len(first) > 0 and not any(d["cached"] for d in first)
-    assert all(d["prompt_tokens"] == PROMPT for d in first)
+def _billing(decisions: list[dict[str, Any]]) -> list[tuple[Any, ...]]:
+    """What each decision was billed and what a cached one saved (its latency aside)."""
+    return [(d["cached"], d["prompt_tokens"], d["completion_tokens"], d["cost_usd"],
+             d.get("saved") and {k: v for k, v in d["saved"].items() if k != "latency_s"})
+            for d in decisions]
+
+
+def test_extra_tokens_cost_and_cached_replies_mean_the_same_at_both_doors(
+        tmp_path: Path, provider: Provider, monkeypatch):
+    """The same episode at both doors, each run twice with its cache (ours ``--cache``,
+    Inspect's ``--cache``): the same request bodies, and every decision billed alike:
+    tokens (the provider's cached prefix counted in the prompt), cost from LiteLLM's cost
+    map, and, run again, the cache's replies billed 0 with what they cost kept as saved."""
+    task = config_paths()[0]
+    monkeypatch.setenv("INSPECT_CACHE_DIR", str(tmp_path / "inspect-cache"))
+    model = f"{openai_api(monkeypatch, provider.base_url)}/{MODEL}"
+    ours = _our_door(task, provider, tmp_path / "run", tmp_path / "cache")
+    our_bodies = _decisions(provider)
+    provider.program(default=cached_reply())
+    theirs = _inspect_door(task, model, tmp_path / "logs")
+    their_bodies = _decisions(provider)
+
+    # every key of --extra / -T extra reached the server, with the same value
+    assert our_bodies and len(our_bodies) == len(their_bodies) == len(ours) == len(theirs)
+    for a, b in zip(our_bodies, their_bodies):
+        assert _sampling(a) == _sampling(b) == EXTRA, (a, b)
+    # tokens (the cached prefix in the prompt's) and cost, decision by decision
+    price_in, price_out = token_prices(f"openai/{MODEL}")
+    cost = PROMPT * price_in + COMPLETION * price_out
+    assert cost > 0
+    assert _billing(ours) == _billing(theirs) == \
+        [(False, PROMPT, COMPLETION, pytest.approx(cost), None)] * len(ours)
+
+    # again, each from its own cache: nothing reaches the server, billed 0, cost saved
     provider.program()
-    again = decisions()
-    assert not _decisions(provider)  # every decision from Inspect's cache
-    assert [d["raw_output"] for d in again] == [d["raw_output"] for d in first]
-    assert all(d["cached"] and d["prompt_tokens"] == d["completion_tokens"] == 0
-               and d["cost_usd"] == 0 for d in again)
-    assert [d["saved"]["prompt_tokens"] for d in again] == [PROMPT] * len(again)
+    ours = _our_door(task, provider, tmp_path / "again", tmp_path / "cache")
+    theirs = _inspect_door(task, model, tmp_path / "logs")
+    assert not _decisions(provider)
+    saved = {"prompt_tokens": PROMPT, "completion_tokens": COMPLETION,
+             "cost_usd": pytest.approx(cost)}
+    assert _billing(ours) == _billing(theirs) == [(True, 0, 0, 0, saved)] * len(ours)
 
 
 def test_a_misspelt_seat_is_refused_at_both_doors(tmp_path: Path):
