@@ -24,6 +24,7 @@ from cocobench_agents.prompts import (
     PromptSuiteError,
     available_suites,
     load_prompt_suite,
+    merged_templates,
     shipped_suite_files,
 )
 from cocobench_agents.tools import EpisodeTools
@@ -52,10 +53,15 @@ def list_command() -> None:
 @prompts_command.command("export")
 @click.argument("name")
 @click.argument("directory", type=click.Path(path_type=Path))
-def export_command(name: str, directory: Path) -> None:
+@click.option("--planner", "planners", multiple=True, metavar="REF",
+              help="Also write this planner's own templates (NAME.txt each; repeatable): an "
+                   "installed planner, FILE.py:NAME or module:NAME.")
+def export_command(name: str, directory: Path, planners: tuple[str, ...]) -> None:
     """Write the shipped suite NAME into DIRECTORY (new or empty) as a starting point; run it
     with --prompt-suite DIRECTORY."""
     files = shipped_suite_files(name)
+    own = merged_templates({ref: planner_spec(ref).templates for ref in planners})
+    files.update({f"{template}.txt": text.encode("utf-8") for template, text in own.items()})
     if directory.exists() and (not directory.is_dir() or any(directory.iterdir())):
         raise PromptSuiteError(f"{directory}: exists and is not an empty folder; export into "
                                f"a new or empty one")
@@ -65,9 +71,10 @@ def export_command(name: str, directory: Path) -> None:
             (directory / file_name).write_bytes(data)
     except OSError as exc:
         raise PromptSuiteError(f"{directory}: cannot write: {exc.strerror or exc}") from None
+    planner_option = "".join(f" --planner {ref}" for ref in planners)
     click.echo(f"wrote {len(files)} files of {name} to {directory}; edit them, preview with "
-               f"`cocobench prompts show --suite {directory} --task ID`, run with "
-               f"--prompt-suite {directory}")
+               f"`cocobench prompts show --suite {directory} --task ID{planner_option}`, run "
+               f"with --prompt-suite {directory}")
 
 
 @prompts_command.command("show")
@@ -86,12 +93,19 @@ def export_command(name: str, directory: Path) -> None:
                    "first).")
 @click.option("--obs", "obs_mode", type=click.Choice(list(OBSERVATION_MODES)), default=IMAGE,
               show_default=True, help="Observation mode.")
+@click.option("--template", default=None, metavar="NAME",
+              help="One of the planner's own templates (what its `ask` renders), its "
+                   "strategy's fields shown as {name}.")
 def show_command(suite_spec: str, task: str, source: str, planner: str, agent: str | None,
-                 obs_mode: str) -> None:
+                 obs_mode: str, template: str | None) -> None:
     """Print the prompt a model gets at the first step (stdout), and what it is (stderr)."""
-    suite = load_prompt_suite(suite_spec)
     spec = planner_spec(planner)
+    suite = load_prompt_suite(suite_spec, spec.templates)
     seat = _first_seat(spec, agent)
+    if template is not None and template not in spec.templates:
+        raise click.BadParameter(f"{spec.name!r} has no template {template!r} (its own: "
+                                 f"{', '.join(spec.templates) or 'none'})",
+                                 param_hint="--template")
     config = _task(task, source)
     if seat == AGENT_SEAT:
         agent = agent or config.agent_ids[0]
@@ -100,11 +114,14 @@ def show_command(suite_spec: str, task: str, source: str, planner: str, agent: s
                                      f"({', '.join(config.agent_ids)})", param_hint="--agent")
     tools = EpisodeTools(Episode(config), suite, obs_mode=obs_mode)
     tools.start()
-    if seat == LEADER_SEAT:
+    if template is not None:  # asked of the first seat's agent (the team's, for a leader)
+        text, _ = tools.ask_prompt(agent, template, {}, (), with_images=False,
+                                   placeholders=True)
+    elif seat == LEADER_SEAT:
         text, _ = tools.leader_prompt([], with_images=False)
     else:
         text, _, _ = tools.prompt(agent, [], broadcast=spec.broadcast, with_images=False)
-    click.echo(_caption(suite, config, planner, agent, obs_mode), err=True)
+    click.echo(_caption(suite, config, planner, agent, obs_mode, template), err=True)
     click.echo(text)
 
 
@@ -130,11 +147,12 @@ def _task(task: str, source: str) -> TaskConfig:
 
 
 def _caption(suite: PromptSuite, config: TaskConfig, planner: str, agent: str | None,
-             obs_mode: str) -> str:
+             obs_mode: str, template: str | None) -> str:
     who = f"agent={agent}" if agent else "team"
     images = ""
     if obs_mode == IMAGE:
         view = "its own view" if agent else "the agents' views side by side"
         images = f"; the model also gets {view} as an image"
-    return (f"# step 0 prompt · suite {suite.spec} (hash {suite.content_hash[:12]}) · "
+    kind = f"{template} template (its strategy's fields as {{name}})" if template else "prompt"
+    return (f"# step 0 {kind} · suite {suite.spec} (hash {suite.content_hash[:12]}) · "
             f"{config.task_id} · {planner} · {who} · obs={obs_mode}{images}")

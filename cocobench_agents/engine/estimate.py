@@ -12,8 +12,9 @@ Definitions (the docs give the reasons):
 
 * An episode's **first prompt tokens** are what its first decision round sends to models:
   the team's prompt (C0); every agent's prompt (D0, D1); the leader's prompt and every
-  agent's prompt (leader–worker). Each prompt is counted with the tokenizer of the model it
-  goes to (`--agent-model` teams mix them). The oracle sends none (0).
+  agent's prompt (leader–worker); and each of a planner's own templates (`ask`) once per
+  seat, its strategy's fields as `{name}`. Each prompt is counted with the tokenizer of the
+  model it goes to (`--agent-model` teams mix them). The oracle sends none (0).
 * **max_calls** bounds the model calls of an episode from its step budget B (`--max-steps`,
   else `difficulty.step_budget`): C0 asks once per landed step (B); D0/D1 ask every one of
   the N agents each round, and a round lands at least one step or ends the episode (N × B);
@@ -22,7 +23,8 @@ Definitions (the docs give the reasons):
   `calls_per_seat`; `PlannerSpec.most_calls`), a plugin's as a built-in's; one that declares
   no `loop` is assumed to ask N × B (`CostRow.assumed`). Retries are not counted.
 * **cost low** = each seat's first prompt × the calls of a run as short as the oracle's plan
-  (its calls for C0, its busiest agent's calls, i.e. rounds, for teams) × input price.
+  (its calls for C0, its busiest agent's calls, i.e. rounds, for teams) × input price (a
+  strategy's own asks may never be made: not counted).
   **cost high** = max_calls × the row's largest single first prompt × input price, plus
   max_calls × `max_tokens` × output price when `max_tokens` is set. Built-in models are free
   (0); a model without a price in the cost map has unknown cost (None), and so has the total.
@@ -158,11 +160,12 @@ class _Tally:
         for request in self._rounds.requests(spec, planner):
             tokens = self._counter(request.model).count(request.messages)
             share = row.shares.setdefault(request.model, _ModelShare())
-            share.max_calls += most
-            share.low_tokens += tokens * short
             share.largest_prompt = max(share.largest_prompt, tokens)
-            row.max_calls += most
             row.prompt_tokens += tokens
+            if request.template is None:  # a seat's decision; its asks are among its calls
+                share.max_calls += most
+                share.low_tokens += tokens * short
+                row.max_calls += most
 
     def _counter(self, model: str) -> TokenCounter:
         counter = self.counters.get(model)

@@ -2,7 +2,9 @@
 model: the seats its planner's spec declares (`PlannerSpec.seats`), each seat's first prompt
 rendered on the embedded simulator through the planners' own code (`EpisodeTools`, as
 `cocobench prompts show` does) and turned into the chat messages the clients send
-(`build_messages`). The dry run counts their tokens (`estimate`)."""
+(`build_messages`); and each of the planner's own templates (`PlannerSpec.templates`, which
+`ask` renders) once per seat, its strategy's fields shown as `{name}`. The dry run counts
+their tokens (`estimate`)."""
 
 from __future__ import annotations
 
@@ -28,6 +30,7 @@ class FirstRequest:
     agent: str | None  # the deciding agent (None for the team's planner and the leader)
     model: str
     messages: list[dict[str, Any]]  # [] when the seat has nothing to decide (empty menu)
+    template: str | None = None  # a planner's own template (an `ask`); None: the decision
 
 
 def first_round_requests(spec: EpisodeSpec) -> list[FirstRequest]:
@@ -49,6 +52,7 @@ class _SeatPrompt:
     agent: str | None
     text: str
     frames: tuple[bytes, ...]
+    template: str | None = None
 
 
 class FirstRounds:
@@ -56,7 +60,7 @@ class FirstRounds:
     suite, id mode, images): a plan repeats them across models, epochs and agent models."""
 
     def __init__(self) -> None:
-        self._suites: dict[str, PromptSuite] = {}
+        self._suites: dict[tuple, PromptSuite] = {}
         self._worlds: dict[int, Episode] = {}
         self._rendered: dict[tuple, list[_SeatPrompt]] = {}
 
@@ -68,25 +72,28 @@ class FirstRounds:
         # Keyed by the config object: a plan's episodes share one per instance, and all of
         # them are alive while the estimate runs.
         key = (id(spec.config), tuple(seats), planner.broadcast, spec.obs_mode,
-               spec.prompt_suite, spec.stable_ids, images)
+               spec.prompt_suite, spec.stable_ids, images, tuple(planner.templates.items()))
         rendered = self._rendered.get(key)
         if rendered is None:
             rendered = self._rendered[key] = self._render(spec, planner, images)
         out = []
-        for seat, model in zip(rendered, models):
+        for seat in rendered:
+            model = spec.model_for(seat.agent)
             frames = seat.frames if _reads_images(model) else ()
             messages = build_messages(ModelRequest(prompt=seat.text, images=frames))
             out.append(FirstRequest(seat.role, seat.agent, model,
-                                    messages if seat.text else []))
+                                    messages if seat.text else [], seat.template))
         return out
 
     def _render(self, spec: EpisodeSpec, planner: PlannerSpec, images: bool
                 ) -> list[_SeatPrompt]:
         """Every seat's first prompt, in the order the planner's nodes render them (the order
         `--stable-ids` numbers calls in)."""
-        suite = self._suites.get(spec.prompt_suite)
+        suite_key = (spec.prompt_suite, tuple(planner.templates.items()))
+        suite = self._suites.get(suite_key)
         if suite is None:
-            suite = self._suites[spec.prompt_suite] = load_prompt_suite(spec.prompt_suite)
+            suite = self._suites[suite_key] = load_prompt_suite(spec.prompt_suite,
+                                                                planner.templates)
         # One world per instance, reset once: every planner's first snapshot is the same
         # one, and the episode renders each agent's frame of a step once (most of the time
         # of an estimate goes into encoding frames).
@@ -106,6 +113,13 @@ class FirstRounds:
                 if not menu:  # `decide` makes no call on an empty menu
                     text, frames = "", ()
             out.append(_SeatPrompt(seat.role, seat.agent, text, frames))
+        for seat in planner.seats(spec.config.agent_ids):
+            if seat.role == LEADER_SEAT:
+                continue
+            for name in planner.templates:  # as `ask` renders it, the strategy's fields unknown
+                text, frames = tools.ask_prompt(seat.agent, name, {}, (), placeholders=True,
+                                                with_images=images)
+                out.append(_SeatPrompt(seat.role, seat.agent, text, frames, name))
         return out
 
 

@@ -27,7 +27,12 @@ from cocobench_agents.harness.episodes import (
     planner_conditions,
     suite_arms,
 )
-from cocobench_agents.prompts import PromptSuite, load_prompt_suite
+from cocobench_agents.prompts import (
+    PromptSuite,
+    load_prompt_suite,
+    merged_templates,
+    suite_spec,
+)
 
 BASELINE_MODELS = ("greedy", "random")
 
@@ -81,8 +86,7 @@ def canonical(request: RunRequest) -> RunRequest:
         for name in SHORTCUTS.get(part, [part])))
     return request.model_copy(update={
         "out": request.out.resolve(), "selection": selection, "model_settings": settings,
-        "prompt_suites": list(dict.fromkeys(load_prompt_suite(s).spec
-                                            for s in request.prompt_suites)),
+        "prompt_suites": list(dict.fromkeys(suite_spec(s) for s in request.prompt_suites)),
         "planners": [_planner_ref(p) for p in request.planners], "conditions": conditions})
 
 
@@ -100,7 +104,10 @@ def resolve(request: RunRequest, notify: Callable[[str], None]) -> ResolvedRun:
     if needs_model and not models:
         raise RequestError("no model given: --model is required (e.g. --model greedy, or a "
                            "LiteLLM model)")
-    suites = [load_prompt_suite(spec) for spec in request.prompt_suites]
+    # with the planners' own templates: run.json's hash of a suite covers them
+    templates = merged_templates({c.planner: planner_spec(c.planner).templates
+                                  for c in conditions})
+    suites = [load_prompt_suite(spec, templates) for spec in request.prompt_suites]
     selection = request.selection
     tasks = [t for source in selection.sources
              for t in load_source(source, selection.missing, notify)]

@@ -113,16 +113,8 @@ def load_prompt_suite(spec: str = DEFAULT_SUITE,
     """
     own = dict(templates or {})
     _check_own(own)
-    base, variants = _split_spec(spec)
-    unknown = [v for v in variants if v not in VARIANTS]
-    if unknown:
-        raise PromptSuiteError(f"unknown prompt variant {unknown[0]!r} in {spec!r} "
-                               f"(available: {', '.join(VARIANTS)})")
-    if base in available_suites():
-        contents, path = _read_shipped(base), None
-    else:
-        folder = _suite_folder(base)
-        contents, path = _read_folder(folder, str(folder), own), str(folder)
+    base, path, variants = _located(spec)
+    contents = _read_shipped(base) if path is None else _read_folder(Path(path), path, own)
     meta, found, digests = contents
     found, digests = dict(found), dict(digests)
     for name, default in own.items():
@@ -133,6 +125,26 @@ def load_prompt_suite(spec: str = DEFAULT_SUITE,
                        version=str(meta.get("version", "")), templates=found,
                        variants=frozenset(variants), settings=dict(meta), path=path,
                        digests=digests, own=frozenset(own))
+
+
+def suite_spec(spec: str) -> str:
+    """The canonical spec of `spec` (`PromptSuite.spec`: a folder's absolute path, variants
+    sorted) without reading its files, whose templates depend on the run's planners."""
+    base, path, variants = _located(spec)
+    return "+".join([path or base, *sorted(variants)])
+
+
+def _located(spec: str) -> tuple[str, str | None, list[str]]:
+    """The base of `spec`, its folder's absolute path (None: a shipped suite) and its
+    variants, which must be known."""
+    base, variants = _split_spec(spec)
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown:
+        raise PromptSuiteError(f"unknown prompt variant {unknown[0]!r} in {spec!r} "
+                               f"(available: {', '.join(VARIANTS)})")
+    if base in available_suites():
+        return base, None, variants
+    return base, str(_suite_folder(base)), variants
 
 
 def merged_templates(planners: Mapping[str, Mapping[str, str]]) -> dict[str, str]:

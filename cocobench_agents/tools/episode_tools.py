@@ -128,13 +128,18 @@ class EpisodeTools:
 
     def ask_prompt(self, agent: str | None, template: str, fields: Mapping[str, object],
                    options: Sequence[MenuOption], history: Sequence[str] = (),
-                   with_images: bool = True) -> tuple[str, tuple[bytes, ...]]:
+                   with_images: bool = True, placeholders: bool = False
+                   ) -> tuple[str, tuple[bytes, ...]]:
         """A planner's own `template` rendered for `agent` (None: the team) with the
         strategy's `fields`, its `{menu}` listing `options` (``id: call``), and its images;
-        kept like every prompt (`ctx.ask`)."""
+        kept like every prompt (`ask`). With `placeholders`, a field not given shows as
+        ``{name}`` (a preview, a dry run); with `options` empty, so does ``{menu}``."""
         lines = [f"{o.action_id}: {o.call}" for o in options]
         inputs = self._inputs(lines, history, ())
-        text = self.keep(render_own(self.suite, template, inputs, agent, fields))
+        if placeholders and not options:
+            fields = {"menu": "{menu}", **fields}
+        text = self.keep(render_own(self.suite, template, inputs, agent, fields,
+                                    placeholders=placeholders))
         return text, self.images(agent) if with_images else ()
 
     def keep(self, prompt: str) -> str:

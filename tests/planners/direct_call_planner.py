@@ -3,6 +3,7 @@ retry policy directly, as a researcher may (test_strategy_calls.py)."""
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 
 from langgraph.graph import END, START, StateGraph
@@ -25,10 +26,8 @@ async def consult_then_decide(state: PlannerState, runtime: Runtime[PlannerConte
     decision."""
     ctx = runtime.context
     question = ModelRequest(prompt=f"Round {state.get('round_index')}: any advice?")
-    try:
+    with contextlib.suppress(ModelError):  # advice is optional
         await ctx.retry_policy.complete(ctx.client_for(None), question)
-    except ModelError:
-        pass  # advice is optional
     return {"pending": [await decide(ctx, agent, policy="direct", history=[])
                         for agent in state["agents"]]}
 

@@ -130,3 +130,29 @@ def test_an_answer_off_the_menu_is_a_parse_error_counted_as_one(demo, script,
     assert [(d["status"], d["answer"]) for d in asks] == [
         ("invalid_action_id", None), ("parse_error", None)]
     assert model_usage(document).parse_errors == 2
+
+
+def test_the_dry_run_counts_the_pricing_prompt_of_every_seat(demo, fresh_planners):
+    """Per episode: every robot's decision prompt and its pricing prompt (the strategy's
+    fields shown as `{object}`, `{wanted}`, `{menu}`); the calls bounded by 2 per robot per
+    round."""
+    from cocobench_agents.engine.estimate import estimate
+    from cocobench_agents.engine.first_prompts import first_round_requests
+    from cocobench_agents.harness import Condition, plan_episodes
+    from cocobench_agents.models import import_litellm
+
+    config = demo["G_D1"]
+    (planned,) = plan_episodes([config], [PRICED], [Condition(SEALED_BID, "blind")], 1,
+                               max_steps=5)
+    requests = first_round_requests(planned.spec)
+    assert [(r.agent, r.template) for r in requests] == [
+        ("agent_1", None), ("agent_2", None), ("agent_1", "pricing"), ("agent_2", "pricing")]
+    pricing = requests[2].messages[0]["content"]
+    assert "You are agent_1" in pricing and "the {object} this round" in pricing
+    assert "{menu}" in pricing and "{me}" not in pricing
+
+    plan = estimate([planned], ModelSettings())
+    count = import_litellm().token_counter
+    tokens = [count(model=PRICED, messages=r.messages) for r in requests]
+    assert plan.episodes[0].prompt_tokens == sum(tokens) > sum(tokens[:2])
+    assert plan.rows[0].max_calls == 2 * config.agent_count * 5
