@@ -19,11 +19,15 @@ import click
 @click.option("--arms", is_flag=True,
               help="Report every run as its own arm (models labelled 'MODEL @RUN'), for runs "
                    "whose settings differ (temperature, grammar, max steps, ...).")
+@click.option("--baseline", metavar="MODEL", default=None,
+              help="Compare every model with this one in compare.md (default: every pair of "
+                   "models); with --arms, a row label such as 'MODEL @RUN'.")
 @click.option("--plot-condition", metavar="COND", default=None,
               help="Condition the per-condition figures show (default: C0_image, else the "
                    "first condition).")
 def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed: int | None,
-                   no_plots: bool, plot_condition: str | None, arms: bool) -> None:
+                   no_plots: bool, plot_condition: str | None, arms: bool,
+                   baseline: str | None) -> None:
     """Write Markdown and CSV tables, PNG plots and an index.md for RUN folders.
 
     Several runs are reported side by side; a model found in several runs is merged, the
@@ -40,7 +44,7 @@ def report_command(runs: tuple[str, ...], out: str | None, resamples: int, seed:
     boot = Bootstrap(resamples=resamples, seed=DEFAULT_SEED if seed is None else seed)
     try:  # build_report checks every RUN before it writes anything
         summary = build_report(list(runs), target, boot=boot, plots=not no_plots,
-                               condition=plot_condition, arms=arms)
+                               condition=plot_condition, arms=arms, baseline=baseline)
     except NotARunFolder as exc:
         raise click.BadParameter(str(exc), param_hint="RUN") from None
     except ReportError as exc:

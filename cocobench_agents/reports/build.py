@@ -9,7 +9,7 @@ from pathlib import Path
 
 from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.conditions import condition_name
-from cocobench_agents.reports import diagnostics, paired, result_tables
+from cocobench_agents.reports import compare, diagnostics, paired, reliability, result_tables
 from cocobench_agents.reports.load import ReportData, ReportError, load_runs
 from cocobench_agents.reports.render import PlotEntry, index_markdown, to_csv, to_markdown
 from cocobench_agents.reports.stats import Bootstrap
@@ -28,6 +28,10 @@ TABLES: tuple[Callable[[result_tables.Ctx], Table], ...] = (
     diagnostics.construct_correlation,
 )
 PRIMARY_CONDITION = condition_name(result_tables.BASELINE_ARCH, IMAGE)  # the paper's main protocol
+#: What every table of a report with repeated epochs says about its intervals.
+CLUSTERED_NOTE = ("Intervals resample instances (model, condition, task) with all their epochs "
+                  "together (a clustered bootstrap: epochs of one instance are not independent "
+                  "trials); n still counts episodes. See docs/statistics.md.")
 
 
 class ReportWriteError(RuntimeError):
@@ -52,13 +56,25 @@ class ReportSummary:
     warnings: list[str] = field(default_factory=list)  # about the runs read (invalid lines)
 
 
-def compute_tables(data: ReportData, boot: Bootstrap | None = None) -> list[Table]:
+def compute_tables(data: ReportData, boot: Bootstrap | None = None,
+                   baseline: str | None = None) -> list[Table]:
     """Every report table for already loaded runs (the arms table only when they have
-    arms: see `paired`)."""
+    arms: see `paired`; model comparisons with two models or more, against `baseline` if
+    given; reliability only when some instance ran in several epochs)."""
     ctx = result_tables.Ctx(data, boot or Bootstrap())
     made = [make(ctx) for make in TABLES]
+    extra = []
     if paired.arm_groups(data):
-        made.insert(1, paired.arms_table(ctx))  # an ablation's result: next to the main one
+        extra.append(paired.arms_table(ctx))  # an ablation's result: next to the main one
+    compared = compare.compare(ctx, baseline)
+    if compared.rows:
+        extra.append(compared)
+    if ctx.clustered:
+        extra.append(reliability.reliability(ctx))
+    made[1:1] = extra
+    if ctx.clustered:
+        for table in made:
+            table.notes.append(CLUSTERED_NOTE)
     return made
 
 
@@ -76,18 +92,21 @@ def plot_condition(data: ReportData, wanted: str | None = None) -> str | None:
 
 def build_report(runs: Sequence[str | Path], out: str | Path, *,
                  boot: Bootstrap | None = None, plots: bool = True,
-                 condition: str | None = None, arms: bool = False) -> ReportSummary:
+                 condition: str | None = None, arms: bool = False,
+                 baseline: str | None = None) -> ReportSummary:
     """Read the run folders (merged, later runs winning) and write the report into `out`.
 
     `condition` is the one per-condition figures show (default C0_image, else the first).
     Plots are skipped, with a note in the summary and index, when matplotlib is missing.
     Runs whose settings differ cannot share a row unless `arms` (see `load_runs`).
+    `baseline`: the model (report row) every other model is compared with (default: every
+    pair of models).
     """
     boot = boot or Bootstrap()
     data = load_runs(list(runs), arms=arms)
     shown = plot_condition(data, condition)
     out = Path(out)
-    made = compute_tables(data, boot)
+    made = compute_tables(data, boot, baseline)
     with _writing(out):
         return _write_report(data, made, out, boot, plots=plots, shown=shown)
 
@@ -126,7 +145,8 @@ def _write_report(data: ReportData, made: list[Table], out: Path, boot: Bootstra
             if written:
                 note = f"Per-condition figures show {shown}."
     files += [out / p.file for p in written]
-    files.insert(0, _write(out / "index.md", index_markdown(data, made, written, boot, note)))
+    files.insert(0, _write(out / "index.md", index_markdown(
+        data, made, written, boot, note, clustered=any(CLUSTERED_NOTE in t.notes for t in made))))
     return ReportSummary(out=out, files=files, tables=made, plots=written, plot_note=note,
                          episodes=len(data.episodes), models=data.base_models(), arms=data.arms(),
                          conditions=list(data.conditions), plot_condition=shown,

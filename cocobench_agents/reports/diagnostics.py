@@ -3,15 +3,12 @@ supplementary Tables 5-6, Figure 2)."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from benchmark_adapter.metrics import FAILURE_KINDS
 from cocobench_agents.reports.load import DIMENSIONS, INFRA_KIND, UNRECORDED_KIND
 from cocobench_agents.reports.result_tables import ID_COLUMNS, Ctx
-from cocobench_agents.reports.stats import (
-    correlation_matrix,
-    mean_ci,
-    paired_diff_ci,
-    total,
-)
+from cocobench_agents.reports.stats import correlation_matrix, total
 from cocobench_agents.reports.table import Column, Table
 
 FLAGS = (("dep", "Dep"), ("occ", "Occ"), ("aff", "Aff"), ("ill", "Ill"))
@@ -64,8 +61,7 @@ def terminal_states(ctx: Ctx) -> Table:
     kind = ctx.ep.text["failure_kind"]
     for model, condition, mask in ctx.cells():
         table.rows.append([model, condition, int(mask.sum()),
-                           *(mean_ci((kind[mask] == k).astype(float), ctx.boot)
-                             for k in kinds)])
+                           *(ctx.mean_of((kind == k).astype(float), mask) for k in kinds)])
     return table
 
 
@@ -83,7 +79,7 @@ def legality(ctx: Ctx) -> Table:
     for model, condition, mask in ctx.cells():
         table.rows.append([model, condition, int(mask.sum()), ctx.mean("success", mask),
                            ctx.mean("legal", mask),
-                           paired_diff_ci(success[mask], legal[mask], ctx.boot)])
+                           ctx.diff_of(success, legal, *(np.flatnonzero(mask),) * 2)])
     return table
 
 
@@ -119,8 +115,8 @@ def cost(ctx: Ctx) -> Table:
     for model, condition, mask in ctx.cells():
         row: list = [model, condition, int(mask.sum())]
         for key, *_ in COST_COLUMNS:
-            values = tokens[mask] if key == "tokens" else ep.col(key)[mask]
-            row += [mean_ci(values, ctx.boot), total(values)]
+            values = tokens if key == "tokens" else ep.col(key)
+            row += [ctx.mean_of(values, mask), total(values[mask])]
         table.rows.append(row)
     return table
 
@@ -141,7 +137,7 @@ def construct_correlation(ctx: Ctx) -> Table:
         mask = ctx.ep.mask(model=None if block == POOLED else block)
         if not mask.any():
             continue
-        matrix = correlation_matrix([s[mask] for s in scores], ctx.boot)
+        matrix = correlation_matrix([s[mask] for s in scores], ctx.boot, ctx.instances[mask])
         for d, row in zip(DIMENSIONS, matrix):
             table.rows.append([block, d, *row])
     return table

@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.reports import paired
+from cocobench_agents.reports import paired, reliability
 from cocobench_agents.reports.load import DIMENSIONS
 from cocobench_agents.reports.render import PlotEntry
 from cocobench_agents.reports.result_tables import GROUPS, group_prefix
@@ -198,6 +198,31 @@ def team_size(tables: dict[str, Table], path: Path, condition: str) -> bool:
     return True
 
 
+def pass_hat_k(tables: dict[str, Table], path: Path, condition: str) -> bool:
+    """pass^k against k, one line per model, for the shown condition (runs with epochs)."""
+    table = tables.get(reliability.NAME)
+    rows = [r for r in table.records() if r["condition"] == condition] if table else []
+    ks = [int(c.key.rpartition("_")[2]) for c in table.columns
+          if c.key.startswith("pass_hat_")] if table else []
+    if not rows or len(ks) < 2:
+        return False
+    fig, axes = _figure(min(24.0, 4.0 + 2.5 * min(4, len(rows))), 4.6)
+    ax = axes[0]
+    for color, r in zip(_colors(len(rows)), rows):
+        vals = [_value(r.get(f"pass_hat_{k}"), 100.0) for k in ks]
+        ax.errorbar(ks, [v[0] for v in vals], yerr=[[v[1] for v in vals], [v[2] for v in vals]],
+                    marker="o", capsize=3, label=r["model"], color=color)
+    ax.set_xticks(ks)
+    ax.set_xlabel("k (trials that must all succeed)")
+    ax.set_ylabel("pass^k (%)")
+    ax.set_ylim(0, 105)
+    ax.grid(alpha=0.3)
+    ax.set_title(f"pass^k ({condition})")
+    _legend(fig, axes, len(rows))
+    _save(fig, path)
+    return True
+
+
 def failure_modes(tables: dict[str, Table], path: Path, condition: str) -> bool:
     table = tables["terminal_states"]
     rows = [r for r in table.records() if r["condition"] == condition]
@@ -295,6 +320,11 @@ ARM_PLOTS: tuple[tuple[str, str, Callable[[dict[str, Table], Path, str], bool]],
     ("fig_arms_cs.png", "Construct score per arm", _arms("cs", "CS", 1.0, 1.05)),
 )
 
+#: Figures of runs with repeated epochs (written when the report has a reliability table).
+EPOCH_PLOTS: tuple[tuple[str, str, Callable[[dict[str, Table], Path, str], bool]], ...] = (
+    ("fig_pass_hat_k.png", "pass^k against k", pass_hat_k),
+)
+
 
 def write_plots(tables: Sequence[Table], out: Path, condition: str) -> list[PlotEntry]:
     """Draw every figure that has data into `out`; raises PlotsUnavailable without
@@ -304,7 +334,7 @@ def write_plots(tables: Sequence[Table], out: Path, condition: str) -> list[Plot
     written = []
     with matplotlib.style.context("default"), matplotlib.rc_context(
             {"svg.hashsalt": "cocobench", "figure.max_open_warning": 0}):
-        for file, title, draw in (*PLOTS, *ARM_PLOTS):
+        for file, title, draw in (*PLOTS, *EPOCH_PLOTS, *ARM_PLOTS):
             if draw(by_name, out / file, condition):
                 written.append(PlotEntry(file, title))
     return written

@@ -160,8 +160,9 @@ def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]
 
 
 def index_markdown(data: ReportData, tables: Sequence[Table], plots: Sequence[PlotEntry],
-                   boot: Bootstrap, plot_note: str | None) -> str:
-    """The report's front page: runs, what was counted, links to tables and plots."""
+                   boot: Bootstrap, plot_note: str | None, *, clustered: bool = False) -> str:
+    """The report's front page: runs, what was counted, links to tables and plots
+    (`clustered`: some instance ran in several epochs, and intervals resample instances)."""
     lines = ["# CoCoBench report", "", f"{counts_line(data)}, from {len(data.runs)} run(s).", ""]
     lines += warning_lines([*data.warnings, *infra_warnings(data)])
     lines.append(f"* Models: {', '.join(data.base_models()) or '-'}")
@@ -171,7 +172,9 @@ def index_markdown(data: ReportData, tables: Sequence[Table], plots: Sequence[Pl
     if data.superseded_across_runs:
         lines.append(f"* {data.superseded_across_runs} episodes found in several runs: the "
                      "later run's result is used.")
-    lines += [f"* Intervals: {boot.confidence:.0%} percentile bootstrap over episodes, "
+    over = ("instances (model, condition, task), all epochs of an instance together (a "
+            "clustered bootstrap, docs/statistics.md)" if clustered else "episodes")
+    lines += [f"* Intervals: {boot.confidence:.0%} percentile bootstrap over {over}, "
               f"{boot.resamples} resamples, seed {boot.seed}.", "", "## Runs", ""]
     lines += _md_table(["Run", "Created", "Models", "Conditions", "Source", "Episodes",
                         "Status", "Infra errors", "Notes"], [_run_row(r) for r in data.runs])

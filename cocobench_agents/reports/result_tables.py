@@ -1,8 +1,10 @@
 """The paper's result tables, one function each: (ReportData, Bootstrap) -> Table.
 
-Rates and means carry percentile-bootstrap intervals over episodes (see `stats`). Missing
-values (None in a result line, e.g. a gated construct score) are left out of a mean, and the
-estimate's n says how many episodes it rests on. Differences between conditions are paired:
+Rates and means carry percentile-bootstrap intervals that resample instances: every epoch of
+an instance (model, condition, task) is drawn together (a clustered bootstrap, see `stats`;
+with one epoch, that is resampling episodes). Missing values (None in a result line, e.g. a
+gated construct score) are left out of a mean, and the estimate's n says how many episodes
+it rests on. Differences between conditions are paired:
 episodes of the same task and epoch under both conditions (see `architecture`).
 The failure, legality, cost and correlation tables are in `diagnostics`.
 """
@@ -11,12 +13,19 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from benchmark_adapter.vocabulary import BLIND, IMAGE
 from cocobench_agents.reports.load import DIMENSIONS, ReportData
-from cocobench_agents.reports.stats import Bootstrap, Estimate, mean_ci, paired_diff_ci
+from cocobench_agents.reports.stats import (
+    Bootstrap,
+    Estimate,
+    cluster_codes,
+    mean_ci,
+    paired_diff_ci,
+)
 from cocobench_agents.reports.table import Column, Table
 from cocobench_agents.runfolder.infra import retry_command
 from cocobench_agents.runfolder.result_line import CS_NOTE
@@ -40,8 +49,32 @@ class Ctx:
     def ep(self):
         return self.data.episodes
 
+    @cached_property
+    def instances(self) -> np.ndarray:
+        """Each episode's instance (model, condition, task) as an integer code: the cluster
+        every interval resamples, all epochs of an instance together."""
+        ep = self.ep
+        return cluster_codes(np.array(["\x1f".join(key) for key in zip(
+            ep.text["model"], ep.text["condition"], ep.text["task_id"])], dtype=object))
+
+    @cached_property
+    def clustered(self) -> bool:
+        """Whether some instance ran more than once (epochs): intervals then differ from a
+        bootstrap over episodes, and the tables say so."""
+        return bool(self.instances.size) and int(self.instances.max()) + 1 < self.instances.size
+
     def mean(self, column: str, mask: np.ndarray) -> Estimate:
-        return mean_ci(self.ep.col(column)[mask], self.boot)
+        return self.mean_of(self.ep.col(column), mask)
+
+    def mean_of(self, values: np.ndarray, mask: np.ndarray) -> Estimate:
+        """The mean of per-episode `values` over `mask`, its interval clustered by instance."""
+        return mean_ci(values[mask], self.boot, self.instances[mask])
+
+    def diff_of(self, a: np.ndarray, b: np.ndarray, ia: np.ndarray, ib: np.ndarray
+                ) -> Estimate:
+        """The paired difference a[ia] − b[ib], its interval clustered by the instance of
+        the first of each pair."""
+        return paired_diff_ci(a[ia], b[ib], self.boot, self.instances[ia])
 
     def cells(self) -> Iterator[tuple[str, str, np.ndarray]]:
         """(model, condition, mask) for every pair with episodes, in report order."""
@@ -120,7 +153,7 @@ def delta_cells(ctx: Ctx, ia: np.ndarray, ib: np.ndarray) -> list[Estimate]:
         keep = np.ones(ia.size, dtype=bool) if group is None else dims == group
         for column in ("success", "cs"):
             col = ctx.ep.col(column)
-            out.append(paired_diff_ci(col[ia[keep]], col[ib[keep]], ctx.boot))
+            out.append(ctx.diff_of(col, col, ia[keep], ib[keep]))
     return out
 
 

@@ -367,6 +367,58 @@ def _counts(successes: Sequence[float] | np.ndarray, trials: Sequence[float] | n
     return c, n
 
 
+def within_share_ci(successes: Sequence[float] | np.ndarray,
+                    trials: Sequence[float] | np.ndarray,
+                    boot: Bootstrap | None = None) -> Estimate:
+    """The between-epoch share of the variance of 0/1 outcomes: σ²_within / (σ²_within +
+    σ²_between) of the one-way random-effects model over instances (1 − the intraclass
+    correlation; ANOVA estimators, σ²_between floored at 0), with an interval that
+    resamples instances. 0: every instance gives the same outcome every epoch; about 1:
+    which instance it is says nothing. NA without two instances, a repeated one, and some
+    variance; n = instances."""
+    boot = boot or Bootstrap()
+    c = np.asarray(successes, dtype=np.float64).ravel()
+    n = np.asarray(trials, dtype=np.float64).ravel()
+    keep = n > 0
+    c, n = c[keep], n[keep]
+    # per-instance terms whose sums give the ANOVA: count, Σn, Σc, Σc²/n, Σn²
+    terms = np.column_stack([np.ones_like(n), n, c, c * c / np.maximum(n, 1.0), n * n])
+    value = float(_within_share(terms.sum(axis=0)[None, :])[0])
+    if c.size < 2 or np.isnan(value):
+        return Estimate(None, None, None, int(c.size))
+    shares = _within_share(_resampled_sums(terms, boot))
+    shares = shares[~np.isnan(shares)]
+    lo, hi = boot.interval(shares) if shares.size else (value, value)
+    return Estimate(value, min(lo, value), max(hi, value), int(c.size))
+
+
+def _within_share(s: np.ndarray) -> np.ndarray:
+    """σ²_w / (σ²_w + σ²_b) per row of sums [instances, Σn, Σc, Σc²/n, Σn²] (NaN where
+    undefined)."""
+    k, total_n, total_c, c2n, n2 = (s[:, i] for i in range(5))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ss_within = total_c - c2n  # Σ n p̂(1 − p̂)
+        ss_between = c2n - total_c * total_c / total_n
+        ms_within = ss_within / (total_n - k)
+        ms_between = ss_between / (k - 1)
+        n0 = (total_n - n2 / total_n) / (k - 1)  # epochs per instance, for unequal counts
+        between = np.maximum((ms_between - ms_within) / n0, 0.0)
+        share = ms_within / (ms_within + between)
+    share[(k < 2) | (total_n <= k) | ~np.isfinite(share)] = np.nan
+    return np.clip(share, 0.0, 1.0)
+
+
+def sign_test_p(wins: int, losses: int) -> float | None:
+    """Two-sided exact binomial test of wins against losses at p = 1/2 (ties left out): with
+    0/1 outcomes paired once, the discordant pairs, this is McNemar's exact test. None when
+    there is nothing to test."""
+    m = wins + losses
+    if m == 0:
+        return None
+    tail = sum(math.comb(m, i) for i in range(min(wins, losses) + 1))
+    return min(1.0, 2 * tail / 2 ** m)
+
+
 def total(values: Sequence[float] | np.ndarray) -> float | None:
     """Sum of the non-missing values (None when there are none)."""
     x = clean(values)

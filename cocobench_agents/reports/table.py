@@ -12,6 +12,7 @@ KINDS: dict[str, tuple[int, int, float]] = {
     "num": (1, 4, 1.0),  # seconds, steps, calls
     "tokens": (0, 2, 1.0),
     "usd": (4, 6, 1.0),
+    "p": (4, 6, 1.0),  # a p-value
 }
 
 
