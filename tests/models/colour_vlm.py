@@ -26,6 +26,9 @@ from tests.paths import SHARED_DATA
 TOOL = SHARED_DATA.parent / "tools" / "colour-vlm"
 MODEL_ALIAS = "smollm2-colour"
 IMAGE_TOKENS = 16  # what one image adds to a prompt: 4 × 4 patches, one token each
+#: What the dry run counts for C0's side-by-side frame of 2 agents (600×328): OpenAI's tile
+#: rule, 85 + 170 × 2 tiles (docs/dry-run.md, "Images").
+DRY_RUN_FRAME_TOKENS = 425
 
 
 def missing_reason() -> str | None:

@@ -2,8 +2,9 @@
 ``../shared/tools/colour-vlm/`` (tests/models/colour_vlm.py). Through LiteLLM, the http
 transport and Inspect, a frame reaches the model (it names the frame's colour, and the image
 adds its 16 prompt tokens); a C0_image episode plays alike through the three, each decision's
-prompt counted alike; the same server without its projector is refused by the pre-flight of
-both doors with the server's words."""
+prompt counted alike; the dry run's count of a C0_image first prompt is set against the
+server's, text and frame apart; the same server without its projector is refused by the
+pre-flight of both doors with the server's words."""
 
 from __future__ import annotations
 
@@ -17,7 +18,12 @@ from typing import Any
 
 import pytest
 
-from tests.models.colour_vlm import IMAGE_TOKENS, build_projector, start_colour_server
+from tests.models.colour_vlm import (
+    DRY_RUN_FRAME_TOKENS,
+    IMAGE_TOKENS,
+    build_projector,
+    start_colour_server,
+)
 from tests.paths import SHARED_TASKS
 
 pytestmark = [pytest.mark.vlm, pytest.mark.slow]
@@ -96,6 +102,48 @@ def _decisions(out: Path) -> list[dict[str, Any]]:
     [line] = [json.loads(x) for x in (out / "results.jsonl").read_text().splitlines()]
     assert not line.get("infra_error") and line["backend_errors"] == 0, line
     return json.loads((out / line["trajectory"]).read_text())["planner_decisions"]
+
+
+def test_the_dry_runs_image_tokens_against_the_servers_count(colour_server, tmp_path):
+    """A C0_image episode's first prompt, as the dry run counts it and as the server counted
+    it when the episode ran, each split into its text and its frame: the dry run renders the
+    prompt the run sent (its text count is the run's prompt's); it counts the frame by
+    OpenAI's tile rule (425 tokens for C0's 600×328 view) where this server adds 16, so its
+    image figure is an upper bound for such a server, not the server's count."""
+    from cocobench_agents.engine.pricing import TokenCounter
+    from cocobench_agents.models import ModelRequest, build_messages, import_litellm
+    from cocobench_agents.runfolder import RunFolder
+
+    model = f"openai/{colour_server.model}"
+    dry = subprocess.run(
+        [sys.executable, "-m", "cocobench_agents.cli", "run", "--task", TASK, "--model", model,
+         "--conditions", "C0_image", "--max-steps", "1", "--dry-run", "--json", "--out",
+         str(tmp_path / "dry")], capture_output=True, text=True, check=False, timeout=300)
+    assert dry.returncode == 0, dry.stderr[-3000:]
+    [episode] = json.loads(dry.stdout)["episodes"]
+    dry_total = episode["prompt_tokens"]
+
+    out = tmp_path / "run"
+    done = _cocobench_run(colour_server, "http", out)
+    assert done.returncode == 0, done.stderr[-3000:]
+    first = _decisions(out)[0]
+    [line] = RunFolder(out).results()
+    text = RunFolder(out).prompts(line)[first["prompt_hash"]]
+    server_total = first["prompt_tokens"]
+
+    async def server_text_only() -> int:
+        reply = await _client(colour_server, "http").complete(ModelRequest(prompt=text))
+        return reply.prompt_tokens
+
+    dry_text = TokenCounter(import_litellm(), model).count(
+        build_messages(ModelRequest(prompt=text)))
+    server_text = asyncio.run(server_text_only())
+    # the frame: the dry run's tile rule against the server's 16 tokens
+    assert dry_total - dry_text == DRY_RUN_FRAME_TOKENS
+    assert server_total - server_text == IMAGE_TOKENS
+    # the text: cl100k_base (the dry run's stand-in) within 25 % of SmolLM2's own tokenizer
+    assert abs(dry_text - server_text) <= 0.25 * server_text, (dry_text, server_text)
+    assert dry_total > server_total  # an upper bound for this server
 
 
 @pytest.mark.needs_inspect
