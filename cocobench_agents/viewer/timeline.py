@@ -17,6 +17,9 @@ from benchmark_adapter.metrics.steps import (
 
 NO_PROMPT = "prompt not stored in this run"
 NO_REPLY = "reply not stored in this run"
+#: Statuses of a strategy's own calls that got an answer (`graphs.model_calls`): an `ask`
+#: without a menu, a call made with a client directly.
+ANSWERED = ("reply", "direct")
 
 
 @dataclass
@@ -42,7 +45,20 @@ class Decision:
         return reply if isinstance(reply, str) else None
 
     @property
+    def kind(self) -> str | None:
+        """What a strategy's own call was (``ask · pricing``, ``direct call``); None for a
+        decision."""
+        if self.record.get("ask"):
+            return f"ask · {self.record['ask']}"
+        if self.record.get("policy") == "direct":
+            return "direct call"
+        return None
+
+    @property
     def parsed(self) -> str:
+        if self.kind is not None:
+            answer = self.record.get("answer")
+            return f"answer: {answer}" if isinstance(answer, str) else ""
         call = self.record.get("parsed_call")
         if call:
             return str(call)
@@ -52,7 +68,7 @@ class Decision:
     @property
     def failure(self) -> str | None:
         """The protocol or backend failure of a call that landed nothing."""
-        if self.record.get("parsed_call") or self.status == "action":
+        if self.record.get("parsed_call") or self.status in ("action", *ANSWERED):
             return None
         detail = self.record.get("error") or self.record.get("terminal_reason") or ""
         kind = self.record.get("error_kind")
