@@ -44,6 +44,7 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("inspect_eval",),  # the Inspect task: the Python API's request, run by Inspect
         ("api", "viewer", "episode_graph", "export", "envs"),  # the other doors: none opens
         # onto another
+        ("verify",),  # replays recorded runs and bundles in the embedded simulator
         ("reports",),  # reads run folders, and what their requests' settings are
         ("engine",),  # RunRequest → plan → run; imports no door
         ("harness",),

@@ -28,6 +28,7 @@ COMMANDS = {
     "view": "view_cmd:view_command",
     "export": "export_cmd:export_command",
     "import-inspect": "import_inspect_cmd:import_inspect_command",
+    "verify": "verify_cmd:verify_command",
 }
 
 # What `cocobench --help` lists, so that it imports no subcommand (a command missing here is
@@ -45,13 +46,15 @@ SUMMARIES = {
     "view": "Browse run folders in a browser (live), or export them as static pages.",
     "export": "Write run folders' decisions as a Hugging Face dataset (Parquet + card).",
     "import-inspect": "Write an Inspect log of the cocobench task as a run folder.",
+    "verify": "Replay every episode of runs or bundles in the simulator; recompute metrics.",
 }
 
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback (the
 # engine's, the viewer's, the export's and the Inspect log import's).
 USER_ERRORS = {**ENGINE_USER_ERRORS, "cocobench_agents.viewer.errors": "ViewerError",
                "cocobench_agents.export.errors": "ExportError",
-               "cocobench_agents.inspect_eval.convert": "InspectLogError"}
+               "cocobench_agents.inspect_eval.convert": "InspectLogError",
+               "cocobench_agents.verify.errors": "VerifyError"}
 
 
 class LazyGroup(click.Group):
