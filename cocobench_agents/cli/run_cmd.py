@@ -50,15 +50,26 @@ if TYPE_CHECKING:
                    "episodes, the most model calls, the first prompts' tokens and a cost "
                    "range, against --max-cost.")
 @click.option("--json", "as_json", is_flag=True, help="With --dry-run: one JSON object.")
+@click.option("--power-baseline", type=click.Path(file_okay=False, path_type=Path),
+              metavar="RUN", default=None,
+              help="With --dry-run: take the variances of the power estimate from this earlier "
+                   "run folder (default: a conservative prior).")
+@click.option("--detect", type=click.FloatRange(0.0, 1.0, min_open=True), metavar="DIFF",
+              default=None,
+              help="With --dry-run: the SR difference to detect (0.05 = 5 points): print the "
+                   "epochs or instances that detect it at 80%% power.")
 @click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
               help="With human seats: the play page's port on 127.0.0.1 (0: any free one).")
 @click.option("--no-browser", is_flag=True,
               help="With human seats: do not open the play page (its URL is printed).")
 def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
                 print_config: bool, dry_run: bool, as_json: bool, port: int,
-                no_browser: bool, **options: Any) -> None:
+                no_browser: bool, power_baseline: Path | None, detect: float | None,
+                **options: Any) -> None:
     """Run planners on CoCoBench instances and record one trajectory and one result per
     episode. Every model × condition × instance × epoch is one episode."""
+    if not dry_run and (power_baseline is not None or detect is not None):
+        raise click.UsageError("--power-baseline and --detect go with --dry-run")
     request = _request(options, config_file, resume)
     if print_config:
         import yaml
@@ -68,7 +79,7 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
         click.echo(yaml.safe_dump(request_as_config(request), sort_keys=False), nl=False)
         return
     if dry_run:
-        _dry_run(request, as_json, resume)
+        _dry_run(request, as_json, resume, power_baseline, detect)
         return
     from cocobench_agents.engine.results import collect_results
     from cocobench_agents.engine.run import run
@@ -133,11 +144,12 @@ def _given(options: dict[str, Any]) -> dict[str, Any]:
             for name, value in given.items()}
 
 
-def _dry_run(request: RunRequest, as_json: bool, resume: bool) -> None:
+def _dry_run(request: RunRequest, as_json: bool, resume: bool, power_baseline: Path | None,
+             detect: float | None) -> None:
     from cocobench_agents.cli.dry_run_view import dry_run_table
     from cocobench_agents.engine.dry_run import plan
 
-    estimate = plan(request, resume=resume)
+    estimate = plan(request, resume=resume, power_baseline=power_baseline, detect=detect)
     if as_json:
         click.echo(json.dumps(estimate.to_json()))
     else:

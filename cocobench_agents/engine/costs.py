@@ -1,12 +1,14 @@
 """What a dry run reports (`estimate`, `cocobench run … --dry-run`): a `CostPlan` of rows per
-model × condition × arm, their total, every episode's first-prompt tokens, and the JSON object
-`--dry-run --json` prints (docs/dry-run.md)."""
+model × condition × arm, their total, every episode's first-prompt tokens, the run's power,
+and the JSON object `--dry-run --json` prints (docs/dry-run.md)."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+from cocobench_agents.engine.power import Power
 
 
 @dataclass(frozen=True)
@@ -97,14 +99,17 @@ class CostPlan:
     high_exceeds_max_cost: bool | None = None
     #: Every episode's first-prompt tokens, in plan order (a row's `prompt_tokens` sums them).
     episodes: tuple[EpisodeTokens, ...] = ()
+    #: What the run can detect between two arms (`dry_run.plan` sets it; see `power`).
+    power: Power | None = None
 
     def to_json(self) -> dict[str, Any]:
-        """The `--dry-run --json` object: rows, total, token counters, the spend limit and
-        every episode's first-prompt tokens."""
+        """The `--dry-run --json` object: rows, total, token counters, the spend limit,
+        every episode's first-prompt tokens and, from `plan`, the power."""
         limit = None
         if self.max_cost_usd is not None:
             limit = {"limit": self.max_cost_usd, "low_exceeds": self.low_exceeds_max_cost,
                      "high_exceeds": self.high_exceeds_max_cost}
+        power = {} if self.power is None else {"power": self.power.to_json()}
         return {"rows": [row.to_json() for row in self.rows], "total": self.total.to_json(),
                 "token_counters": dict(self.token_counters), "max_cost_usd": limit,
-                "episodes": [episode.to_json() for episode in self.episodes]}
+                "episodes": [episode.to_json() for episode in self.episodes], **power}

@@ -11,7 +11,7 @@ from cocobench_agents.engine.request import iter_fields
 from cocobench_agents.setting_kinds import flag_of
 
 OWN = {"config_file", "resume", "retry_errors", "print_config", "dry_run", "as_json", "help",
-       "port", "no_browser"}
+       "port", "no_browser", "power_baseline", "detect"}
 SOURCES = {"tasks", "suite"}  # both set selection.sources
 
 

@@ -49,3 +49,25 @@ def not_a_run_folder(path: Path, make: str) -> Path:
     elif make == "empty":
         path.mkdir()
     return path
+
+
+#: A result line synthetic episodes (`synthetic_run`) are made from.
+TEMPLATE = next(line for line in result_lines(RUN_SMALL)
+                if line["model"] == "greedy" and line["condition"] == "C0_image")
+
+
+def episode(model: str, task: int, epoch: int, success: bool, **more: Any) -> dict[str, Any]:
+    """A valid result line of `model` on synthetic instance `task`."""
+    return {**TEMPLATE, "model": model, "task_id": f"T{task:03d}", "epoch": epoch,
+            "task_success": int(success), "legal_plan": float(success), **more}
+
+
+def synthetic_run(path: Path, outcomes: dict[str, list[list[bool]]]) -> Path:
+    """A run folder: for each model, outcomes[instance][epoch]."""
+    return write_run(path, [episode(model, i, e, ok) for model, rows in outcomes.items()
+                            for i, row in enumerate(rows) for e, ok in enumerate(row)])
+
+
+#: A: instances 0-9 always succeed, 10-19 never. B: every instance succeeds in 1 epoch of 3.
+CONSISTENT = [[True] * 3] * 10 + [[False] * 3] * 10
+FLIPPING = [[(i + e) % 3 == 0 for e in range(3)] for i in range(20)]
