@@ -21,7 +21,12 @@ from cocobench_agents.graphs import (
     compiled_graph,
     planner_spec,
 )
-from cocobench_agents.graphs.node_errors import NodeFailure, PlannerNodeError, node_failure
+from cocobench_agents.graphs.node_errors import (
+    NodeFailure,
+    PlannerNodeError,
+    node_failure,
+    run_to_end,
+)
 from cocobench_agents.models.human import HUMAN, HumanTurn
 from cocobench_agents.models.protocol import ModelClient
 from cocobench_agents.models.retry import RetryPolicy
@@ -139,7 +144,7 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
         raise
     except Exception as exc:
         failure = node_failure(exc)
-        if failure is None:  # not a node's doing (the simulator, LangGraph's limit)
+        if failure is None:  # not the planner's doing (the simulator)
             raise
         raise PlannerNodeError(failure, _stopped(tools, failure, spec, trajectory_path)
                                ) from exc
@@ -166,12 +171,12 @@ def run_retry_policy(pool: ClientFactory) -> RetryPolicy:
 
 
 async def _invoke(spec: EpisodeSpec, context: PlannerContext, steps: int) -> None:
-    await compiled_graph(spec.planner).ainvoke(
+    # A graph that never ends raises `EndlessLoop`, naming its last nodes.
+    await run_to_end(
+        compiled_graph(spec.planner),
         {"agents": spec.config.agent_ids, "round_index": 1, "history": {}, "messages": [],
          "terminal_reason": None},
         context=context,
         # A fresh thread per episode; each landed step takes a few supersteps.
         config={"recursion_limit": 6 * steps + 50,
-                "configurable": {"thread_id": uuid.uuid4().hex}},
-        stream_mode="updates",  # nothing reads the states in between: don't snapshot them
-    )
+                "configurable": {"thread_id": uuid.uuid4().hex}})

@@ -17,7 +17,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemaini
 from rich.progress import Progress as RichProgress
 
 from cocobench_agents.engine import events
-from cocobench_agents.runfolder.infra import is_infra_failure
+from cocobench_agents.runfolder.infra import is_infra_failure, is_planner_failure
 
 #: Off a terminal, a status line every this many seconds (and at the end).
 PLAIN_STATUS_EVERY_S = 30.0
@@ -32,7 +32,7 @@ class Progress:
         self.stream = stream or sys.stderr
         self.live = self.stream.isatty() if live is None else live
         self.total = total
-        self.done = self.successes = self.errors = 0
+        self.done = self.successes = self.errors = self.planner_errors = 0
         self.tokens, self.cost = 0, 0.0
         for record in recorded:
             self._count(record)
@@ -59,6 +59,7 @@ class Progress:
         self.done += 1
         self.successes += int(record.get("task_success") or 0)
         self.errors += is_infra_failure(record)
+        self.planner_errors += is_planner_failure(record)
         usage = record.get("usage") or {}
         self.tokens += int(usage.get("prompt_tokens") or 0) + int(
             usage.get("completion_tokens") or 0)
@@ -75,7 +76,8 @@ class Progress:
         """Success so far, errors, tokens, cost: of every episode done, in this process or
         before a resume."""
         rate = f"{100 * self.successes / self.done:.1f}%" if self.done else "-"
-        return (f"SR {rate} ({self.successes}/{self.done}) | errors {self.errors} | "
+        planner = f" | planner errors {self.planner_errors}" if self.planner_errors else ""
+        return (f"SR {rate} ({self.successes}/{self.done}) | errors {self.errors}{planner} | "
                 f"{self.tokens:,} tokens | ${self.cost:.4f}")
 
     def status_text(self) -> str:
@@ -105,9 +107,12 @@ def episode_line(record: dict[str, Any]) -> str:
     if record.get("epoch"):
         head += f" e{record['epoch']}"
     if record.get("infra_error"):
-        # A planner node's error is followed by its traceback's last frames: kept whole.
         first, _, frames = record["infra_error"].partition("\n")
         return f"{head}: ERROR {first[:160]}" + (f"\n{frames}" if frames else "")
+    if record.get("planner_error"):
+        # The node's error is followed by its traceback's last frames: kept whole.
+        first, _, frames = record["planner_error"].partition("\n")
+        return f"{head}: PLANNER ERROR {first}" + (f"\n{frames}" if frames else "")
     construct = record.get("construct_score")
     construct_text = f"{construct:.2f}" if construct is not None else record.get(
         "construct_status")

@@ -98,8 +98,9 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
     _summary(results, request)
     if results.stopped is not None:
         raise SpendLimitReached(results.stopped)
-    if results.errors:
-        raise RunHadErrors(results.folder, results.errors, runaway_causes(results))
+    if results.errors or results.planner_errors:
+        raise RunHadErrors(results.folder, results.errors, runaway_causes(results),
+                           results.planner_errors)
 
 
 def _request(options: dict[str, Any], config_file: Path | None, resume: bool) -> RunRequest:
@@ -171,20 +172,36 @@ class SpendLimitReached(click.ClickException):
 
 
 class RunHadErrors(click.ClickException):
-    """Episodes ended because of the model's infrastructure: exit 1, and say how to retry."""
+    """Episodes ended because of the model's infrastructure (exit 1, and how to retry them)
+    or of the planner's own code (exit 1, and that a retry would fail the same way)."""
 
     exit_code = 1
 
-    def __init__(self, folder: Path, failed: int, runaways: dict[str, int]) -> None:
-        stopped = ""
-        if runaways:
-            causes = ", ".join(f"{count} {cause}" for cause, count in sorted(runaways.items()))
-            stopped = (f"; stopped as runaways: {causes} (raise --episode-memory or "
-                       "--stall-timeout if they are healthy)")
-        super().__init__(
-            f"{failed} episode{'s' if failed != 1 else ''} ended on an infrastructure error "
-            "(model backend error, timeout, unsupported input, or the harness) and count as "
-            f"failures above{stopped}; retry them with: {retry_command(folder)}")
+    def __init__(self, folder: Path, failed: int, runaways: dict[str, int],
+                 planner_failed: int = 0) -> None:
+        told = []
+        if failed:
+            stopped = ""
+            if runaways:
+                causes = ", ".join(f"{count} {cause}" for cause, count in
+                                   sorted(runaways.items()))
+                stopped = (f"; stopped as runaways: {causes} (raise --episode-memory or "
+                           "--stall-timeout if they are healthy)")
+            told.append(
+                f"{_episodes(failed)} ended on an infrastructure error (model backend error, "
+                "timeout, unsupported input, or the harness) and count as failures "
+                f"above{stopped}; retry them with: {retry_command(folder)}")
+        if planner_failed:
+            told.append(
+                f"{_episodes(planner_failed)} ended on a planner error (the strategy's own "
+                "code: its node, file and line are above and in the trajectory) and count as "
+                "failures above; running them again unchanged fails the same way: fix the "
+                "strategy, then start a new run in another --out")
+        super().__init__("\n".join(told))
+
+
+def _episodes(count: int) -> str:
+    return f"{count} episode{'s' if count != 1 else ''}"
 
 
 def _summary(results: EvalResults, request: RunRequest) -> None:

@@ -10,14 +10,15 @@ class EvalResults(list):
     """The result lines of a run (one dict per episode, the fields of ``results.jsonl``).
 
     `folder` is the run folder; `errors` counts episodes that the model's infrastructure or
-    the harness ended; `stopped` says why the run did not finish every episode (a spend
-    limit), or is None.
+    the harness ended, `planner_errors` those the planner's own code ended (never retried);
+    `stopped` says why the run did not finish every episode (a spend limit), or is None.
     """
 
     def __init__(self, records: list[dict[str, Any]], folder: Path, errors: int,
-                 stopped: str | None) -> None:
+                 stopped: str | None, planner_errors: int = 0) -> None:
         super().__init__(records)
         self.folder, self.errors, self.stopped = folder, errors, stopped
+        self.planner_errors = planner_errors
 
     @property
     def results_file(self) -> Path:
@@ -30,8 +31,9 @@ class EvalResults(list):
 def collect_results(out: Path, stopped: str | None = None) -> EvalResults:
     """The latest result line of every episode recorded in run folder `out`."""
     from cocobench_agents.runfolder.folder import RunFolder
-    from cocobench_agents.runfolder.infra import count_infra_failures
+    from cocobench_agents.runfolder.infra import count_infra_failures, count_planner_failures
     from cocobench_agents.runfolder.summary import latest
 
     records = latest(RunFolder(out).results())
-    return EvalResults(records, Path(out), count_infra_failures(records), stopped)
+    return EvalResults(records, Path(out), count_infra_failures(records), stopped,
+                       count_planner_failures(records))

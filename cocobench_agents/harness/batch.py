@@ -17,7 +17,7 @@ from typing import Any
 
 from benchmark_adapter.metrics import unrun_result
 from cocobench_agents.episode_runner import ClientFactory, has_human_seat, run_episode
-from cocobench_agents.graphs.node_errors import PlannerNodeError
+from cocobench_agents.graphs.node_errors import PlannerNodeError, is_strategy_code
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.errors import FatalModelError, fatal_model_error
 from cocobench_agents.harness.execution_settings import ExecutionSettings
@@ -36,7 +36,7 @@ from cocobench_agents.models import ModelPool
 from cocobench_agents.models.secrets import redact
 from cocobench_agents.runfolder.errors import RunFolderError, RunFolderWriteError
 from cocobench_agents.runfolder.folder import RunFolder
-from cocobench_agents.runfolder.result_line import infra_error_line
+from cocobench_agents.runfolder.result_line import infra_error_line, planner_error_line
 
 StepCallback = Callable[[dict[str, Any], dict[str, Any]], None]  # key, landed step
 
@@ -155,8 +155,9 @@ async def _run_and_write(planned: PlannedEpisode, folder: RunFolder, pool: Clien
             run_episode(spec, pool, controller=spec.controller(), on_step=step_hook),
             timeout_s)
     except PlannerNodeError as exc:  # its trajectory shows what led to the node's exception
-        record = infra_error_record(planned, redact(str(exc), _secrets(pool)),
-                                    time.perf_counter() - started)
+        # A researcher's strategy failed on its own; a built-in planner's failure is ours.
+        kind = planner_error_record if is_strategy_code(spec.planner) else infra_error_record
+        record = kind(planned, redact(str(exc), _secrets(pool)), time.perf_counter() - started)
         return store_trajectory(folder, planned, record, exc.document)
     result = result.model_copy(update={
         "condition": key.condition, "epoch": key.epoch,
@@ -177,9 +178,13 @@ def store_trajectory(folder: RunFolder, planned: PlannedEpisode, record: dict[st
         raise
     except Exception as exc:  # noqa: BLE001 - the document's fault, not the folder's
         error = f"the trajectory could not be written: {described(exc)}"
+        elapsed = float(record.get("elapsed_s") or 0.0)
+        if record.get("planner_error"):  # still the strategy's failure, first of all
+            return planner_error_record(planned, f"{record['planner_error']}\n{error}",
+                                        elapsed), None
         before = record.get("infra_error")
         return infra_error_record(planned, f"{before}; {error}" if before else error,
-                                  float(record.get("elapsed_s") or 0.0)), None
+                                  elapsed), None
     return record, document
 
 
@@ -196,13 +201,27 @@ def timeout_error(timeout_s: float) -> str:
 def infra_error_record(planned: PlannedEpisode, error: str, elapsed: float) -> dict[str, Any]:
     """The result line of an episode that could not run (scored as a failure, as the
     reference does for runner_failed / timeout)."""
+    return infra_error_line(planned.key, _writable(error), _unrun(planned, elapsed))
+
+
+def planner_error_record(planned: PlannedEpisode, error: str, elapsed: float
+                         ) -> dict[str, Any]:
+    """The result line of an episode the planner's own code ended (`PlannerNodeError`):
+    a failure, counted apart from infrastructure errors and never retried as one."""
+    return planner_error_line(planned.key, _writable(error), _unrun(planned, elapsed))
+
+
+def _unrun(planned: PlannedEpisode, elapsed: float) -> dict[str, Any]:
     spec = planned.spec
-    # An exception's message may hold text no UTF-8 file holds (a lone surrogate): escaped,
-    # so that the line can be written.
-    error = error.encode("utf-8", "backslashreplace").decode("utf-8")
-    return infra_error_line(planned.key, error, unrun_result(
-        spec.config, planner=spec.planner, obs_mode=spec.obs_mode, backend=spec.backend,
-        prompt_suite=spec.prompt_suite, elapsed_s=round(elapsed, 3)))
+    return unrun_result(spec.config, planner=spec.planner, obs_mode=spec.obs_mode,
+                        backend=spec.backend, prompt_suite=spec.prompt_suite,
+                        elapsed_s=round(elapsed, 3))
+
+
+def _writable(error: str) -> str:
+    """An exception's message may hold text no UTF-8 file holds (a lone surrogate): escaped,
+    so that the line can be written."""
+    return error.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 def _secrets(pool: ClientFactory) -> list[str]:

@@ -15,7 +15,7 @@ from benchmark_adapter.tasks import load_tasks
 from benchmark_adapter.vocabulary import BLIND, DEMO_SUITE
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
 from cocobench_agents.graphs import PlannerContext, PlannerError, compiled_graph
-from cocobench_agents.graphs.node_errors import PlannerNodeError
+from cocobench_agents.graphs.node_errors import EndlessLoop, PlannerNodeError
 from cocobench_agents.graphs.plugins import LoadedPlanner, describe_error, user_planners
 from cocobench_agents.models import ModelPool
 
@@ -59,15 +59,18 @@ async def _check(name: str) -> None:
     spec = EpisodeSpec(config, planner=name, models={"*": "greedy"}, obs_mode=BLIND)
     try:
         _, result = await run_episode(spec, ModelPool())
-    except RecursionError:  # LangGraph's GraphRecursionError is one
-        raise PlannerError(f"planner {name}: its check episode ({CHECK_TASK}, greedy) did not "
-                           "end; end a step with observe_next (it stops on the step budget) "
-                           "and route with continue_or_end") from None
-    except Exception as exc:  # noqa: BLE001 - any failure of user code fails the check
+    except PlannerNodeError as exc:
+        if isinstance(exc.__cause__, EndlessLoop):
+            raise PlannerError(f"planner {name}: its check episode ({CHECK_TASK}, greedy) did "
+                               "not end; end a step with observe_next (it stops on the step "
+                               "budget) and route with continue_or_end: "
+                               f"{exc.failure.headline()}") from None
         # A node's exception comes with its node, file, line and last frames.
-        cause = exc if isinstance(exc, PlannerNodeError) else describe_error(exc)
         raise PlannerError(f"planner {name}: its check episode ({CHECK_TASK}, greedy) failed: "
-                           f"{cause}") from None
+                           f"{exc}") from None
+    except Exception as exc:  # noqa: BLE001 - any failure of user code fails the check
+        raise PlannerError(f"planner {name}: its check episode ({CHECK_TASK}, greedy) failed: "
+                           f"{describe_error(exc)}") from None
     if not result.terminal_reason:
         raise PlannerError(f"planner {name}: its check episode ({CHECK_TASK}, greedy) ended "
                            "without a recorded terminal reason; end through land_round or "

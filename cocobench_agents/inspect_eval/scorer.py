@@ -23,10 +23,14 @@ SCORES = {"success": "task_success", "construct_score": "construct_score",
           "legal_plan": "legal_plan", "progress": "task_progress", "steps": "num_steps"}
 #: Each dimension's construct score, ``cs_D1`` … (NaN where the episode has none).
 DIMENSION_SCORES = tuple(f"cs_{dim}" for dim in DIMENSIONS)
+#: 1 where the planner's own code ended the episode (a node raised, returned a malformed
+#: record, or never ended), else 0: its mean is the share of such episodes, counted apart
+#: from the model's failures (in the scores) and the infrastructure's (Inspect's errors).
+PLANNER_ERROR = "planner_error"
 _METRICS = [mean(), bootstrap_stderr()]
 
 
-@scorer(metrics={name: _METRICS for name in (*SCORES, *DIMENSION_SCORES)})
+@scorer(metrics={name: _METRICS for name in (*SCORES, *DIMENSION_SCORES, PLANNER_ERROR)})
 def cocobench_scorer() -> Any:
     """Score the sample's trajectory."""
 
@@ -36,6 +40,11 @@ def cocobench_scorer() -> Any:
             return Score.unscored(reason="no trajectory",
                                   explanation="the episode left no trajectory")
         line = state.store.get(RESULT) or {}
+        if line.get("planner_error"):  # the strategy's code ended it: a failure, told apart
+            return Score(value=score_values(line), answer=state.output.completion,
+                         explanation=line["planner_error"],
+                         metadata={"terminal_reason": PLANNER_ERROR,
+                                   PLANNER_ERROR: line["planner_error"]})
         result = score_trajectory(document, **_identifiers(line)).model_dump(mode="json")
         return Score(value=score_values(result), answer=state.output.completion,
                      explanation=_explanation(result),
@@ -65,6 +74,7 @@ def score_values(line: dict[str, Any]) -> dict[str, float]:
     blocks = line.get("cross_construct") or {}
     for name, dim in zip(DIMENSION_SCORES, DIMENSIONS, strict=True):
         values[name] = _number((blocks.get(dim) or {}).get("score"))
+    values[PLANNER_ERROR] = float(bool(line.get(PLANNER_ERROR)))
     return values
 
 

@@ -5,7 +5,9 @@ The trajectory and the result line go into the sample's store (`TRAJECTORY`, `RE
 `inspect view` shows them, the scorer scores the trajectory, `cocobench import-inspect`
 writes them as a run folder. An episode whose model calls got no answer (Inspect gave up
 after its retries) is an infrastructure failure, as in `cocobench run`: the sample ends in
-an error (Inspect's ``--retry-on-error`` runs it again), never in a score.
+an error (Inspect's ``--retry-on-error`` runs it again), never in a score. An episode the
+planner's own code ended (`PlannerNodeError`) is the strategy's failure: scored as a failed
+episode, with the scorer's `planner_error` set, never retried.
 """
 
 from __future__ import annotations
@@ -24,18 +26,19 @@ from inspect_ai.model import (
 )
 from inspect_ai.solver import Generate, Solver, TaskState, solver
 
-from benchmark_adapter.metrics import EpisodeResult
+from benchmark_adapter.metrics import EpisodeResult, unrun_result
 from benchmark_adapter.trajectory import PROMPTS_FIELD
 from benchmark_adapter.vocabulary import IMAGE
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, run_episode
 from cocobench_agents.graphs import NO_MODEL, planner_spec
-from cocobench_agents.graphs.node_errors import PlannerNodeError
+from cocobench_agents.graphs.node_errors import PlannerNodeError, is_strategy_code
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.inspect_client import InspectLimitReached, role_model
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.runfolder.episode_key import EpisodeKey
 from cocobench_agents.runfolder.infra import is_infra_failure
+from cocobench_agents.runfolder.result_line import planner_error_line
 
 TRAJECTORY = "cocobench:trajectory"  # the store key of the episode's trajectory document
 RESULT = "cocobench:result"  # … and of its result line
@@ -43,7 +46,8 @@ RESULT = "cocobench:result"  # … and of its result line
 
 class EpisodeInfraError(RuntimeError):
     """The episode does not measure the model (a model call got no answer after Inspect's
-    retries, a planner node or the simulator failed): Inspect records the sample's error."""
+    retries, a built-in planner's node or the simulator failed): Inspect records the
+    sample's error."""
 
 
 @solver
@@ -68,7 +72,15 @@ def cocobench_solver(planned: dict[str, PlannedEpisode], settings: ModelSettings
                 _keep(state, limit_ended(exc.document, limit), frames)
                 raise limit from None  # Inspect ends the sample at its limit
             _keep(state, exc.document, frames)
-            raise EpisodeInfraError(str(exc)) from None
+            if not is_strategy_code(spec.planner):  # a built-in planner's: ours
+                raise EpisodeInfraError(str(exc)) from None
+            # The strategy's own failure: scored as a failed episode (the scorer's
+            # `planner_error`), never a sample error that Inspect would retry.
+            line = planner_line(episode, key, str(exc), time.perf_counter() - started)
+            state.store.set(RESULT, line)
+            state.output = ModelOutput.from_content(key.model, line["planner_error"])
+            state.completed = True
+            return state
         line = result_line(result, key, elapsed_s=time.perf_counter() - started)
         _keep(state, document, frames)
         state.store.set(RESULT, line)
@@ -170,6 +182,16 @@ def result_line(result: EpisodeResult, key: EpisodeKey, *, elapsed_s: float | No
     if elapsed_s is not None:
         line["elapsed_s"] = round(elapsed_s, 3)
     return line
+
+
+def planner_line(episode: PlannedEpisode, key: EpisodeKey, error: str, elapsed_s: float
+                 ) -> dict[str, Any]:
+    """The result line of an episode the planner's own code ended, as `cocobench run`
+    writes it (`planner_error_line`)."""
+    spec = episode.spec
+    return planner_error_line(key, error, unrun_result(
+        spec.config, planner=spec.planner, obs_mode=spec.obs_mode, backend=spec.backend,
+        prompt_suite=spec.prompt_suite, elapsed_s=round(elapsed_s, 3)))
 
 
 def _key(episode: PlannedEpisode, epoch: int) -> EpisodeKey:

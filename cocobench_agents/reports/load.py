@@ -24,9 +24,10 @@ from cocobench_agents.conditions import obs_mode_rank, split_condition
 from cocobench_agents.reports.arms import arm_label, difference, recorded_settings, row_settings
 from cocobench_agents.runfolder.errors import RunFolderError
 from cocobench_agents.runfolder.folder import RESULTS, RUN_FILE, RunFolder
-from cocobench_agents.runfolder.infra import is_infra_failure
+from cocobench_agents.runfolder.infra import is_infra_failure, is_planner_failure
 
 INFRA_KIND = "infra_error"
+PLANNER_KIND = "planner_error"  # the strategy's own code ended the episode
 UNRECORDED_KIND = "unrecorded"
 
 # Numeric columns: name -> how it is read from a result line (None when absent).
@@ -48,6 +49,7 @@ _NUMERIC = {
     "cost_usd": lambda r: _usage(r, "cost_usd"),
     "saved_cost_usd": lambda r: _usage(r, "saved_cost_usd"),
     "infra_failure": lambda r: float(is_infra_failure(r)),
+    "planner_failure": lambda r: float(is_planner_failure(r)),
     "agent_count": lambda r: r.get("agent_count"),
     **{f"cross_{d}": (lambda r, d=d: _cross(r, d)) for d in DIMENSIONS},
 }
@@ -306,6 +308,8 @@ def _columns(items: list[tuple[tuple, tuple[int, dict[str, Any]]]]) -> Episodes:
 def _failure_kind(record: Mapping[str, Any]) -> str:
     if record.get("infra_error"):
         return INFRA_KIND
+    if is_planner_failure(record):
+        return PLANNER_KIND
     kind = record.get("failure_kind")
     if kind is None and record.get("task_success"):
         return "success"

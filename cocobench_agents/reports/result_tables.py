@@ -121,14 +121,27 @@ def main_results(ctx: Ctx) -> Table:
 
 
 def infra_warnings(data: ReportData) -> list[str]:
-    """What the report says above its main table about infrastructure failures."""
-    failed = int(data.episodes.col("infra_failure").sum()) if len(data.episodes) else 0
-    if not failed:
+    """What the report says above its main table about infrastructure failures (and how to
+    re-run them) and about planner errors (which a re-run would repeat)."""
+    if not len(data.episodes):
         return []
-    retries = "; ".join(retry_command(r.path, r.record) for r in data.runs if r.infra_errors)
-    return [f"{failed} of {len(data.episodes)} episodes ended on an infrastructure error "
+    failed = int(data.episodes.col("infra_failure").sum())
+    planner = int(data.episodes.col("planner_failure").sum())
+    warnings = []
+    if failed:
+        retries = "; ".join(retry_command(r.path, r.record) for r in data.runs
+                            if r.infra_errors)
+        warnings.append(
+            f"{failed} of {len(data.episodes)} episodes ended on an infrastructure error "
             "(model backend error, timeout, unsupported input, or the harness), not on the "
-            f"model's choices; they count as failures in every rate. Re-run them: {retries}"]
+            f"model's choices; they count as failures in every rate. Re-run them: {retries}")
+    if planner:
+        warnings.append(
+            f"{planner} of {len(data.episodes)} episodes ended on a planner error (the "
+            "strategy's own code: each trajectory's stop decision names the node, file and "
+            "line); they count as failures in every rate, and running them again unchanged "
+            "fails the same way")
+    return warnings
 
 
 def paired_indices(ctx: Ctx, mask_a: np.ndarray, mask_b: np.ndarray, by: str

@@ -1,5 +1,8 @@
-"""Which episodes failed for infrastructure reasons: the one definition the live line, the run
-summary, the report, the exit code of `cocobench run` and ``--retry-errors`` all use."""
+"""Which episodes failed, and whose failure it was: the infrastructure's (the harness, the
+simulator, a model call without an answer), which ``--retry-errors`` runs again, or the
+planner's own code (`is_planner_failure`), which runs again only once the strategy is fixed.
+The one definition the live line, the run summary, the report, the viewer, the exit code of
+`cocobench run` and ``--retry-errors`` all use."""
 
 from __future__ import annotations
 
@@ -32,6 +35,18 @@ def unanswered_calls(record: Mapping[str, Any]) -> int:
 def count_infra_failures(records: Iterable[Mapping[str, Any]]) -> int:
     """How many of `records` are infrastructure failures."""
     return sum(is_infra_failure(r) for r in records)
+
+
+def is_planner_failure(record: Mapping[str, Any]) -> bool:
+    """Whether the strategy's own code ended the episode (``planner_error``: a node raised,
+    returned a malformed record, or the graph never ended): a failure of the planner under
+    test, counted apart from the infrastructure's and never retried as one."""
+    return bool(record.get("planner_error"))
+
+
+def count_planner_failures(records: Iterable[Mapping[str, Any]]) -> int:
+    """How many of `records` the planner's own code ended."""
+    return sum(is_planner_failure(r) for r in records)
 
 
 def retry_command(out: str | Path, record: Mapping[str, Any] | None = None) -> str:

@@ -41,7 +41,8 @@ class ConstructBlock(_Line):
     status: str = "scored"
 
 
-#: The run folder's own fields (the episode's key, its trajectory, an infrastructure error),
+#: The run folder's own fields (the episode's key, its trajectory, an infrastructure error or
+#: a planner error),
 #: and the one a line must have: whether the episode succeeded.
 _OWN: dict[str, Any] = {
     "model": (Text, ...),
@@ -51,6 +52,7 @@ _OWN: dict[str, Any] = {
     "arm": (Text | None, None),  # the prompt-suite arm, in a run comparing several
     "task_success": (Annotated[int, Field(ge=0, le=1)], ...),
     "infra_error": (str | None, None),
+    "planner_error": (str | None, None),  # the strategy's code failed (`planner_error_line`)
     "trajectory": (Text | None, None),
 }
 #: The benchmark's blocks that readers look inside: usage totals, each dimension's score.
@@ -122,3 +124,11 @@ def infra_error_line(key: EpisodeKey, error: str, unrun: Mapping[str, Any]) -> d
     """The result line of an episode that could not run: its key, the error, and the
     benchmark's result of an episode that did not run (`metrics.unrun_result`)."""
     return {**key.as_dict(), "infra_error": error, **unrun}
+
+
+def planner_error_line(key: EpisodeKey, error: str, unrun: Mapping[str, Any]) -> dict[str, Any]:
+    """The result line of an episode the planner's own code ended (a node raised, returned a
+    malformed record, or never ended): its key, the error naming the node, file and line, and
+    the benchmark's result of an episode that did not finish (a failure). Not an
+    infrastructure error: running it again fails the same way."""
+    return {**key.as_dict(), "planner_error": error, **unrun}

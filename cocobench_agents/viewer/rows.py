@@ -82,9 +82,14 @@ def team_label(record: dict[str, Any]) -> str:
 
 def error_label(record: dict[str, Any]) -> str:
     """What went wrong outside the model's choices: "infra: <reason>" for an episode the
-    harness or simulator ended, the counts of backend and parse errors, else "none"."""
+    harness or simulator ended, "planner: <headline>" for one the strategy's own code ended,
+    the counts of backend and parse errors, else "none"."""
     infra = record.get("infra_error")
     parts = [f"infra: {infra}" if isinstance(infra, str) else "infra"] if infra else []
+    planner = record.get("planner_error")
+    if planner:  # its headline: the traceback's frames are on the episode's page
+        headline = planner.splitlines()[0] if isinstance(planner, str) else ""
+        parts.append(f"planner: {headline}" if headline else "planner")
     for name, count in (("backend", unanswered_calls(record)),
                         ("parse", record.get("parse_errors"))):
         if isinstance(count, int) and count > 0:

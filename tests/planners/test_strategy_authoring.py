@@ -186,19 +186,20 @@ def test_a_node_raising_mid_run_is_told_on_the_console_and_in_the_trajectory(str
     out = tmp_path / "run"
     assert main(["run", "--planner", f"{strategy}:build_crashes_on_three", *DEMO,
                  "--out", str(out)]) == 1  # the run ends, with an error among its episodes
-    failed = [r for r in results(out) if r.get("infra_error")]
+    failed = [r for r in results(out) if r.get("planner_error")]
     assert [r["task_id"] for r in failed] == [THREE_AGENTS]
+    assert not any(r.get("infra_error") for r in results(out))
     raised = line_of(strategy, "return seats[agent]")
     called = line_of(strategy, "[seat_of(agent) for agent")
     headline = (f"KeyError: 'agent_3' in node 'seated_step' ({strategy}, line {raised})")
-    error = failed[0]["infra_error"].splitlines()
+    error = failed[0]["planner_error"].splitlines()
     assert error[0] == headline
     frames = [line for line in error[1:] if line.startswith("  File ")]
     assert frames == [f'  File "{strategy}", line {called}, in seated_step',
                       f'  File "{strategy}", line {called}, in <listcomp>',
                       f'  File "{strategy}", line {raised}, in seat_of']
     console = capsys.readouterr().err
-    assert f"{THREE_AGENTS}: ERROR {headline}\n" + "\n".join(error[1:]) in console
+    assert f"{THREE_AGENTS}: PLANNER ERROR {headline}\n" + "\n".join(error[1:]) in console
     # The trajectory runs up to the exception, then a stop decision says the same.
     document = trajectory(out, failed[0])
     stop = document["trajectory"][-1]

@@ -17,6 +17,7 @@ from cocobench_agents.graphs import (
     RetryPolicy,
     continue_or_end,
     decide,
+    land_round,
     observe_next,
 )
 
@@ -139,3 +140,45 @@ BAD_SHAPE = PlannerSpec("bad-shape", "BS", build_one_node, False, True, "team pr
                         loop="round", prompt="team")
 BAD_CALLS = PlannerSpec("bad-calls", "BK", build_one_node, True, True, "asks nobody",
                         loop="round", calls_per_seat=0)
+
+
+# -- a strategy's bugs that only a team of three meets (the check's team has two) ------------
+
+
+async def bid_without_status(state: PlannerState, runtime: Runtime[PlannerContext]
+                             ) -> dict[str, Any]:
+    """Every robot bids; in a team of three the last bid's record loses its status."""
+    ctx = runtime.context
+    pending = [await decide(ctx, agent, policy="bids", history=[])
+               for agent in state["agents"]]
+    if len(state["agents"]) == 3:
+        del pending[-1]["status"]
+    return {"pending": pending}
+
+
+def build_malformed_on_three() -> StateGraph:
+    """Returns its round's decisions to the framework's land_round."""
+    graph = StateGraph(PlannerState, context_schema=PlannerContext)
+    graph.add_node("bid", bid_without_status)
+    graph.add_node("land_round", land_round)
+    graph.add_edge(START, "bid")
+    graph.add_edge("bid", "land_round")
+    graph.add_conditional_edges("land_round", continue_or_end("bid"), ["bid", END])
+    return graph
+
+
+async def stall_with_three(state: PlannerState, runtime: Runtime[PlannerContext]
+                           ) -> dict[str, Any]:
+    """Steps as one_node does; a team of three waits for a seat that never frees."""
+    if len(state["agents"]) == 3:
+        return {}
+    return await step(state, runtime)
+
+
+def build_endless_on_three() -> StateGraph:
+    graph = StateGraph(PlannerState, context_schema=PlannerContext)
+    graph.add_node("stall_with_three", stall_with_three)
+    graph.add_edge(START, "stall_with_three")
+    graph.add_conditional_edges("stall_with_three", continue_or_end("stall_with_three"),
+                                ["stall_with_three", END])
+    return graph
