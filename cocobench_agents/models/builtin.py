@@ -100,7 +100,11 @@ def greedy_choice(menu: Sequence[MenuOption]) -> MenuOption | None:
 class RandomClient:
     """A uniform, seeded choice from the menu, never DONE (``ACTION: DONE`` only when the
     menu is empty). The stream depends on the seed, the episode, the agent and the request's
-    `sample_index`, so every agent of every episode and sample is reproducible on its own."""
+    `sample_index`, so every agent of every episode and sample is reproducible on its own.
+
+    Common random numbers: the episode's prompt-suite arm is not part of the stream
+    (`stream_episode`), so arms that differ only in prompts (which `random` never reads) are
+    compared on the same draws, and their paired difference is exactly 0."""
 
     accepts_images = False  # built-ins never look at frames: don't render them
 
@@ -109,7 +113,7 @@ class RandomClient:
     ) -> None:
         self.name = name
         self.seed = seed
-        self.episode = episode
+        self.episode = stream_episode(episode)
         self.agent = agent
         self._streams: dict[int, random.Random] = {}
 
@@ -128,6 +132,15 @@ class RandomClient:
             return _reply("ACTION: DONE")
         choice = self._stream(request.sample_index).choice(request.menu)
         return _reply(f"ACTION: {choice.action_id}")
+
+
+def stream_episode(episode: str) -> str:
+    """The part of an episode's key a random stream depends on: the key without its
+    prompt-suite arm. A run's key is ``model/condition[/arm]/task[@eN]``
+    (`runfolder.EpisodeKey.parts`); a key without an arm (or a bare task id) is kept as it
+    is, so runs without arms draw what they always drew."""
+    parts = episode.split("/")
+    return "/".join([*parts[:2], parts[-1]]) if len(parts) == 4 else episode
 
 
 class Script:
