@@ -20,7 +20,7 @@ _EXPORTS = {
     # what a strategy is made of
     "PlannerContext": ".context",
     "PlannerState": ".state", "TEAM": ".state", "team_history": ".state",
-    "decide": ".decision", "ask": ".model_calls",
+    "decide": ".decision", "ask": ".decision",
     "observe_next": ".nodes", "land_round": ".nodes", "continue_or_end": ".nodes",
     "fan_out": ".decentralized", "add_round": ".decentralized",
     "RetryPolicy": "cocobench_agents.models.retry",
