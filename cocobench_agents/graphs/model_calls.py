@@ -34,6 +34,8 @@ class RecordingClient:
         self.name = client.name
 
     def __getattr__(self, name: str) -> Any:
+        if name == "client":  # not set yet (a copy being made): no recursion
+            raise AttributeError(name)
         return getattr(self.client, name)
 
     async def complete(self, request: ModelRequest) -> ModelReply:

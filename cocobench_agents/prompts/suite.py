@@ -175,9 +175,13 @@ def _check_own(templates: Mapping[str, Any]) -> None:
             raise PromptSuiteError(f"{where}: its default must be a string, not "
                                    f"{type(text).__name__}")
         try:
-            problem = field_problem(name, text, own_template_fields(text))
+            fields = own_template_fields(text)
         except ValueError as exc:  # a malformed default: no field list to check against
-            problem = str(exc)
+            problem = f"{exc} (write {{{{ or }}}} for a literal brace)"
+        else:
+            odd = sorted(f for f in fields if not f.isidentifier())
+            problem = (f"field {{{odd[0]}}}: a field is a name (letters, digits, _)" if odd
+                       else field_problem(name, text, fields))
         if problem:
             raise PromptSuiteError(f"{where}: {problem}")
 

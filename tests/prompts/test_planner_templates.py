@@ -9,6 +9,8 @@ import json
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.tasks import load_tasks
@@ -24,6 +26,7 @@ from cocobench_agents.tools import EpisodeTools
 ROOT = Path(__file__).resolve().parents[2]
 SEALED_BID = f"{ROOT / 'examples' / 'strategies' / 'sealed_bid.py'}:SEALED_BID"
 G_D1 = "G_D1__DemoLivingRoom1__seed0"
+CONFIG = next(c for c in load_tasks("demo") if c.task_id == "G_D1__DemoLivingRoom1__seed0")
 OWN = {"pricing": "You are {me}. {goal}\n{progress_section}Price of {object}?\n{menu}\n"}
 
 
@@ -102,7 +105,9 @@ def test_a_replacement_may_use_the_view_fields_and_the_defaults_own(tmp_path):
     ({"../pricing": "x"}, "lower-case letters"),
     ({"suite": "x"}, "the name of a suite template"),
     ({"pricing": 3}, "its default must be a string, not int"),
-    ({"pricing": "{object"}, "pricing"),
+    ({"pricing": "{object"}, "expected '}' before end of string"),
+    ({"pricing": "{0} and {1}"}, r"field \{0\}: a field is a name"),
+    ({"pricing": "{me.upper}"}, r"field \{me.upper\}: a field is a name"),
     ({"pricing": "{n:q}"}, "cannot be formatted"),
 ])
 def test_a_bad_own_template_is_one_line_naming_it(templates, message):
@@ -119,10 +124,8 @@ def test_two_planners_may_share_a_template_only_with_one_text():
 
 
 def test_variants_apply_to_a_planners_template_and_a_missing_field_is_named():
-    config = next(c for c in load_tasks("demo") if c.task_id == G_D1)
-
     def render(spec: str, fields: dict) -> str:
-        tools = EpisodeTools(Episode(config), load_prompt_suite(spec, OWN), obs_mode="blind")
+        tools = EpisodeTools(Episode(CONFIG), load_prompt_suite(spec, OWN), obs_mode="blind")
         tools.start()
         return tools.ask_prompt("agent_1", "pricing", fields, (), with_images=False)[0]
 
@@ -172,3 +175,46 @@ def test_a_run_hashes_the_template_and_a_resume_refuses_an_edited_one(capsys, tm
     (folder / "pricing.txt").write_text("{me}: your price for {object}?\n{menu}")
     code, _, err = cocobench(capsys, *argv, "--resume")
     assert code == 2 and "changed: pricing.txt" in err
+
+
+# -- a stranger's template file ----------------------------------------------------------------
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=st.text(alphabet=st.sampled_from("{}:!<>0123456789 abcdefmnoptxy_\n.[]"),
+                    max_size=40))
+def test_any_text_in_a_template_file_loads_or_is_one_line_naming_it(tmp_path_factory, text):
+    """A suite folder's `pricing.txt` is data from whoever wrote the folder: it loads, or it
+    is refused with one line naming the file; once loaded it renders with the strategy's
+    fields, or names the field it lacks."""
+    folder = tmp_path_factory.mktemp("suite")
+    for name, data in load_prompt_suite().templates.items():
+        (folder / f"{name}.txt").write_text(data)
+    (folder / "suite.json").write_text("{}")
+    (folder / "pricing.txt").write_text(text)
+    try:
+        suite = load_prompt_suite(str(folder), OWN)
+    except PromptSuiteError as exc:
+        assert str(exc).startswith(f"{folder}/pricing.txt: ") and "\n" not in str(exc)
+        return
+    assert suite.templates["pricing"] == text
+    tools = EpisodeTools(Episode(CONFIG), suite, obs_mode="blind")
+    tools.start()
+    try:
+        prompt, _ = tools.ask_prompt("agent_1", "pricing", {"object": "Book"}, (),
+                                     with_images=False)
+    except ValueError as exc:  # a view field of the team's (state) in an agent's ask
+        assert "which was not given" in str(exc)
+    else:
+        assert isinstance(prompt, str)
+
+
+@settings(max_examples=80, deadline=None)
+@given(text=st.text(alphabet=st.sampled_from("{}:!<>0123456789 abmnoxy_.[]"), max_size=30))
+def test_any_default_text_loads_or_is_one_line_naming_its_template(text):
+    try:
+        suite = load_prompt_suite(DEFAULT_SUITE, {"pricing": text})
+    except PromptSuiteError as exc:
+        assert str(exc).startswith("planner template 'pricing': ") and "\n" not in str(exc)
+    else:
+        assert suite.templates["pricing"] == text
