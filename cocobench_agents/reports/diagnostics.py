@@ -77,9 +77,10 @@ def legality(ctx: Ctx) -> Table:
          Column("sr_minus_legal", "SR - Legal", "pct")])
     success, legal = ctx.ep.col("success"), ctx.ep.col("legal")
     for model, condition, mask in ctx.cells():
+        episodes = np.flatnonzero(mask)  # each episode paired with itself
         table.rows.append([model, condition, int(mask.sum()), ctx.mean("success", mask),
                            ctx.mean("legal", mask),
-                           ctx.diff_of(success, legal, *(np.flatnonzero(mask),) * 2)])
+                           ctx.diff_of(success, legal, episodes, episodes)])
     return table
 
 
