@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from cocobench_agents.reports.stats import (
     Bootstrap,
@@ -163,3 +165,42 @@ def test_pass_hat_k_needs_k_trials_and_sane_counts() -> None:
         pass_at_k([3], [2], 1)
     with pytest.raises(ValueError, match="successes"):
         pass_at_k([1, 1], [2], 1)
+
+
+counts = st.integers(1, 12).flatmap(
+    lambda n: st.tuples(st.just(n), st.integers(0, n)))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(counts, min_size=1, max_size=30), st.integers(1, 12))
+def test_pass_k_properties_hold_for_any_counts(instances: list[tuple[int, int]], k: int) -> None:
+    """pass^k <= pass@k, both in [0, 1], pass^k falls and pass@k rises with k; NaN exactly
+    where an instance has fewer than k trials."""
+    n = np.array([i[0] for i in instances], dtype=float)
+    c = np.array([i[1] for i in instances], dtype=float)
+    hat, at = pass_hat_k(c, n, k), pass_at_k(c, n, k)
+    assert np.array_equal(np.isnan(hat), n < k) and np.array_equal(np.isnan(at), n < k)
+    ok = n >= k
+    assert np.all((hat[ok] >= 0) & (hat[ok] <= at[ok] + 1e-12) & (at[ok] <= 1 + 1e-12))
+    ok2 = n >= k + 1
+    assert np.all(pass_hat_k(c, n, k + 1)[ok2] <= hat[ok2] + 1e-12)
+    assert np.all(pass_at_k(c, n, k + 1)[ok2] >= at[ok2] - 1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 9), st.one_of(st.none(), st.floats(-1e6, 1e6))),
+                min_size=1, max_size=60))
+def test_clustered_interval_holds_for_any_values_and_labels(rows: list[tuple[int, float | None]]
+                                                            ) -> None:
+    """Any labels, values and missing values: the estimate is the mean of the present values,
+    inside its interval, and the interval inside their range (NA when none is present)."""
+    labels = [r[0] for r in rows]
+    values = np.array([np.nan if r[1] is None else r[1] for r in rows])
+    est = mean_ci(values, Bootstrap(resamples=200), labels)
+    present = values[~np.isnan(values)]
+    if not present.size:
+        assert est.na and est.n == 0
+        return
+    assert est.n == present.size and est.value == pytest.approx(present.mean(), abs=1e-6)
+    slack = 1e-9 * max(1.0, np.abs(present).max())
+    assert present.min() - slack <= est.lo <= est.value <= est.hi <= present.max() + slack
