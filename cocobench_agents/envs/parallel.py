@@ -44,6 +44,9 @@ DEFAULT_MODEL_NAME = "env"
 RENDER_MODES = ("ansi", "rgb_array")
 #: The options `reset(options=…)` reads.
 RESET_OPTIONS = ("task_id",)
+#: How many instances' episodes an environment keeps built, the most recently played: one
+#: builds in about a millisecond but holds about 0.8 MB (all 897 of cocobench-full held 1 GB).
+KEPT_EPISODES = 32
 
 
 class CoCoBenchParallelEnv(ParallelEnv):
@@ -254,7 +257,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
             # exit while the modules a close needs are still there (a `__del__` ran during
             # their teardown and printed "Exception ignored … EVENT_READ").
             weakref.finalize(self, close_quietly, self.loop)
-        episode = self._episodes.get(config.task_id)
+        episode = self._episodes.pop(config.task_id, None)
         if episode is None:
             spec = EpisodeSpec(config, planner=self.condition.planner,
                                models={DEFAULT_MODEL_KEY: self.model},
@@ -262,9 +265,12 @@ class CoCoBenchParallelEnv(ParallelEnv):
                                prompt_suite=self.prompt_suite, max_steps=self.max_steps)
             partners = {s: c for s, c in self.partners.items()
                         if s in _seats_of(config, self.condition.planner)}
-            episode = self._episodes[config.task_id] = SeatedEpisode(
-                spec, partners=partners, pool=self.pool, text=self.text,
-                off_menu=self.off_menu, loop=self.loop)
+            episode = SeatedEpisode(spec, partners=partners, pool=self.pool, text=self.text,
+                                    off_menu=self.off_menu, loop=self.loop)
+        self._episodes[config.task_id] = episode  # the most recently played, last
+        if len(self._episodes) > KEPT_EPISODES:
+            evicted = self._episodes.pop(next(iter(self._episodes)))
+            self.pool.release(evicted.spec.episode)  # its partners' clients
         return episode
 
     def _image_shape(self, seat: str, robots: int) -> tuple[int, ...] | None:
