@@ -33,15 +33,20 @@ def planner_record(planner: LoadedPlanner) -> dict[str, Any]:
 @click.argument("refs", nargs=-1, metavar="[FILE.py:NAME|module:NAME]...")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list instead of a table.")
 @click.option("--check", is_flag=True,
-              help="Also run the pre-run check on every planner not built in: it compiles, "
-                   "and one demo episode with the greedy model ends with a terminal reason. "
-                   "Ends with a passed / FAILED line; exit 1 if any planner fails.")
+              help="Also run the pre-run check on the planners named (none named: on every "
+                   "installed one): it compiles, and one demo episode with the greedy model "
+                   "ends with a terminal reason. Ends with a passed / FAILED line; exit 1 if "
+                   "any planner fails.")
 def planners_command(refs: tuple[str, ...], as_json: bool, check: bool) -> None:
     """List the built-in planners, those installed packages register (entry point group
     `cocobench.planners`) and any given as FILE.py:NAME or module:NAME. A package whose
     planner fails to load is listed as broken, with the reason."""
-    planners = [*builtin_planners(), *installed_planners(), *user_planners(refs)]
-    failures = _check_each(planners) if check else {}
+    named = user_planners(refs)
+    planners = [*builtin_planners(), *installed_planners(), *named]
+    # The planners named are the ones being written: the installed ones are checked when
+    # none is named.
+    checked = [p for p in (named if refs else planners) if p.origin.kind != "built-in"]
+    failures = _check_each(checked) if check else {}
     records = [planner_record(p) for p in planners]
     if as_json:
         click.echo(json.dumps(records, indent=2))
@@ -50,24 +55,21 @@ def planners_command(refs: tuple[str, ...], as_json: bool, check: bool) -> None:
         click.echo("Use one with --planner NAME (or FILE.py:NAME), or in --conditions as "
                    "CODE_image / CODE_blind.")
     if check:
-        checked = [p.name for p in planners if p.origin.kind != "built-in"]
         for problem in failures.values():
             click.echo(f"cocobench: check failed: {problem}", err=True)
         # The verdict is the last line; beside JSON on stdout it goes to stderr.
-        click.echo(_verdict(checked, failures), err=as_json)
+        click.echo(_verdict([p.name for p in checked], failures), err=as_json)
         if failures:
             raise click.exceptions.Exit(1)
 
 
 def _check_each(planners: list[LoadedPlanner]) -> dict[str, str]:
-    """Run the pre-run check on every planner not built in; the ones that fail (a broken
-    package included), each with why."""
+    """Run the pre-run check on each of `planners`; the ones that fail (a broken package
+    included), each with why."""
     from cocobench_agents.harness.planner_check import check_planners
 
     failures = {}
     for planner in planners:
-        if planner.origin.kind == "built-in":
-            continue
         if planner.spec is None:
             failures[planner.name] = planner.error or "it does not load"
             continue

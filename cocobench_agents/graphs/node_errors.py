@@ -118,6 +118,14 @@ DECISION_FIELDS: dict[str, tuple[type, ...]] = {
     "terminal_reason": (str, type(None)),
 }
 _CHECKED = "_cocobench_checked"  # marks a node function already wrapped
+#: The parameters LangGraph fills by their name, after the state: `runtime` (whose `context`
+#: is the `PlannerContext`), `config`, `writer`, `store`, `previous`, `error`.
+FILLED_BY_NAME = ("runtime", "config", "writer", "store", "previous", "error")
+
+
+class NodeSignatureError(TypeError):
+    """A node function asks for a parameter LangGraph never passes (`rt` for `runtime`):
+    every call of it would fail, so the graph is refused when it is built."""
 
 
 class MalformedUpdate(TypeError):
@@ -139,6 +147,9 @@ def checked_nodes(graph: Any) -> Any:
         runnable = node.runnable
         if getattr(runnable, _CHECKED, False):
             continue
+        function = getattr(runnable, "func", None) or getattr(runnable, "afunc", None)
+        if callable(function):
+            _check_signature(name, inspect.unwrap(function))
         for attribute in ("func", "afunc"):
             function = getattr(runnable, attribute, None)
             if callable(function):
@@ -146,6 +157,25 @@ def checked_nodes(graph: Any) -> Any:
         if hasattr(runnable, "afunc"):
             setattr(runnable, _CHECKED, True)
     return graph
+
+
+def _check_signature(node: str, function: Callable[..., Any]) -> None:
+    """Refuse a node function with a parameter, after the state, that has no default and is
+    not one LangGraph fills by name (`FILLED_BY_NAME`)."""
+    try:
+        parameters = list(inspect.signature(function).parameters.values())[1:]
+    except (TypeError, ValueError):  # no signature to read (a builtin): LangGraph's to judge
+        return
+    for parameter in parameters:
+        if (parameter.default is inspect.Parameter.empty and parameter.name not in
+                FILLED_BY_NAME and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD,
+                                                      parameter.KEYWORD_ONLY)):
+            file, line = source_of(function)
+            where = f" ({file}, line {line})" if file else ""
+            raise NodeSignatureError(
+                f"node {node!r}{where}: its parameter {parameter.name!r} is not one LangGraph "
+                "passes; name it 'runtime' for the Runtime (runtime.context is the "
+                "PlannerContext)")
 
 
 def _checking(function: Callable[..., Any], node: str) -> Callable[..., Any]:

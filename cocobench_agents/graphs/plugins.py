@@ -51,6 +51,9 @@ class PlannerOrigin:
     file: str | None = None  # the file defining NAME, whose hash guards a resume
     sha256: str | None = None
     distribution: str | None = None  # "name version" of the package registering it
+    # The folder of the package NAME's module belongs to: then `sha256` covers every .py
+    # file under it (`_code_hash`), not `file` alone.
+    package: str | None = None
 
     def describe(self) -> str:
         """One line for listings."""
@@ -147,10 +150,18 @@ def check_unchanged(names: Iterable[str], recorded: dict[str, Any]) -> None:
                                f"{now.distribution}, the run was recorded with "
                                f"{then.get('distribution')}; reinstall that version, or start "
                                "a new run in another --out")
-        if then.get("sha256") != now.sha256:
-            raise PlannerError(f"--resume: planner file {now.file or now.source} changed since "
-                               "the run was recorded; restore it, or start a new run in "
-                               "another --out")
+        if then.get("sha256") != now.sha256 and not _recorded_before_packages(then, now):
+            what = f"package {now.package}" if now.package else \
+                f"file {now.file or now.source}"
+            raise PlannerError(f"--resume: planner {what} changed since the run was recorded; "
+                               "restore it, or start a new run in another --out")
+
+
+def _recorded_before_packages(then: dict[str, Any], now: PlannerOrigin) -> bool:
+    """Whether `then` is a record from before whole packages were hashed (no `package`) of
+    the file that is there now."""
+    return (now.package is not None and "package" not in then
+            and then.get("sha256") == _file_hash(now.file))
 
 
 # -- loading ---------------------------------------------------------------------------------
@@ -220,8 +231,9 @@ def _import_module(target: str, attribute: str) -> tuple[Any, PlannerOrigin]:
     except Exception as exc:  # noqa: BLE001 - the user's code may raise anything on import
         raise PlannerError(f"planner module {target}: importing it failed: {describe_error(exc)}"
                            ) from None
-    file = getattr(module, "__file__", None)
-    return module, PlannerOrigin("module", f"{target}:{attribute}", file, _file_hash(file))
+    sha256, package = _code_hash(module)
+    return module, PlannerOrigin("module", f"{target}:{attribute}",
+                                 getattr(module, "__file__", None), sha256, package=package)
 
 
 def _load_entry_point(name: str) -> LoadedPlanner:
@@ -244,8 +256,9 @@ def _load_entry_point(name: str) -> LoadedPlanner:
     except Exception as exc:  # noqa: BLE001 - a broken package may raise anything on import
         raise PlannerError(f"{where}: loading it failed: {describe_error(exc)}") from None
     module = sys.modules.get(ep.module)
-    file = getattr(module, "__file__", None)
-    origin = dataclasses.replace(origin, file=file, sha256=_file_hash(file))
+    sha256, package = _code_hash(module)
+    origin = dataclasses.replace(origin, file=getattr(module, "__file__", None), sha256=sha256,
+                                 package=package)
     return LoadedPlanner(name, _as_spec(value, name, name, where), origin)
 
 
@@ -332,6 +345,28 @@ def _check_shape(spec: PlannerSpec, where: str) -> None:
 
 def _builtin_source(spec: PlannerSpec) -> str:
     return getattr(spec.build, "target", None) or f"{spec.build.__module__}:{spec.build.__name__}"
+
+
+def _code_hash(module: Any) -> tuple[str | None, str | None]:
+    """The hash that guards a resume of a planner defined in `module`, and the package folder
+    it covers: every .py file under the folder of the top-level package `module` belongs to
+    (a spec's `lazy_builder` names its graph's module by a string: the logic lives in
+    modules the spec's own module never imports), else `module`'s own file."""
+    name = getattr(module, "__name__", "")
+    top = sys.modules.get(name.partition(".")[0])
+    folders = list(getattr(top, "__path__", None) or [])
+    if not folders:
+        return _file_hash(getattr(module, "__file__", None)), None
+    root = Path(folders[0])
+    digest = hashlib.sha256()
+    try:
+        for path in sorted(p for p in root.rglob("*.py") if "__pycache__" not in p.parts):
+            data = path.read_bytes()
+            digest.update(f"{path.relative_to(root).as_posix()}\0{len(data)}\0".encode())
+            digest.update(data)
+    except OSError:
+        return None, str(root)
+    return digest.hexdigest(), str(root)
 
 
 def _file_hash(file: str | None) -> str | None:

@@ -185,3 +185,39 @@ def test_the_summary_counts_planner_errors_apart_and_only_shows_them_when_there_
     assert (cells["episodes"], cells["errors"], cells[PLANNER_ERRORS]) == (3, 1, 1)
     assert cells["legal"] == "100.0%" and cells["CS"] == "0.50 (n=1)"  # the ran episode's
     assert PLANNER_ERRORS not in summary_table(rows[::2])[0]
+
+
+WRONG_NAME = '''
+from langgraph.graph import END, START, StateGraph
+from langgraph.runtime import Runtime
+
+from cocobench_agents.graphs import PlannerContext, PlannerState
+
+
+async def step(state: PlannerState, rt: Runtime[PlannerContext]) -> dict:
+    return {"terminal_reason": "done"}
+
+
+def build_wrong_name() -> StateGraph:
+    graph = StateGraph(PlannerState, context_schema=PlannerContext)
+    graph.add_node("step", step)
+    graph.add_edge(START, "step")
+    graph.add_edge("step", END)
+    return graph
+'''
+
+
+def test_a_node_parameter_langgraph_never_passes_is_refused_naming_file_and_line(tmp_path,
+                                                                                capsys):
+    strategy = tmp_path / "wrong_name.py"
+    strategy.write_text(WRONG_NAME)
+    out = tmp_path / "run"
+    assert main(["run", "--planner", f"{strategy}:build_wrong_name", *DEMO,
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"cocobench: error: planner {strategy}:build_wrong_name: building its graph "
+                   f"failed: NodeSignatureError: node 'step' ({strategy}, line "
+                   f"{line_of(strategy, 'async def step')}): its parameter 'rt' is not one "
+                   "LangGraph passes; name it 'runtime' for the Runtime (runtime.context is "
+                   "the PlannerContext)")
+    assert not out.exists()
