@@ -3,10 +3,11 @@
 Makes (or takes, with --run) a `cocobench run --suite cocobench-full --model greedy
 --baselines` run folder (2,691 episodes), then replays every episode of it through the
 embedded simulator (`cocobench_agents.verify.verify_run`) and prints the wall time, the
-episodes a second, the processes used and the machine's load average (the time is shared
-with whatever else runs). With --shared DIR it also makes a scripted run over the task
-configs of DIR (the 36 official ones) under all six conditions and verifies it, those
-configs being the reference. Aim (issue 40): cocobench-full in under 60 s on 2 cores.
+episodes a second, the processes used, the machine's load average and the CPU time used
+(the wall time is shared with whatever else runs; the CPU time is not). With --shared DIR it
+also makes a scripted run over the task configs of DIR (the 36 official ones) under all six
+conditions and verifies it, those configs being the reference. Aim (issue 40):
+cocobench-full in under 60 s on 2 cores.
 
 Usage: python bench/verify.py [--run RUN] [--suite cocobench-full] [--jobs N]
        [--repeats 1] [--shared ../shared/cocobench-data/tasks]
@@ -47,10 +48,13 @@ def make_run(out: Path, args: list[str], cores: int) -> float:
 def timed_verify(run: Path, jobs: int, repeats: int, reference: dict | None = None) -> None:
     times, outcome = [], None
     load_before = os.getloadavg()
+    cpu_before = os.times()
     for _ in range(repeats):
         outcome = verify_run(run, jobs=jobs, reference=reference)
         times.append(outcome.elapsed_s)
     load_after = os.getloadavg()
+    cpu = [after - before for after, before in zip(os.times(), cpu_before)]
+    cpu_s = sum(cpu[:4]) / repeats  # user + system, of this process and its workers
     assert outcome is not None
     episodes = len(outcome.verdicts)
     median = statistics.median(times)
@@ -59,6 +63,8 @@ def timed_verify(run: Path, jobs: int, repeats: int, reference: dict | None = No
     print(f"  verify: {median:.1f} s (median of {repeats}), {episodes / median:.0f} "
           f"episodes/s, {outcome.processes} processes; load average before "
           f"{load_before[0]:.1f}, after {load_after[0]:.1f} (1 min)")
+    print(f"  CPU time: {cpu_s:.1f} s (user + system, all processes): on {jobs} idle cores "
+          f"about {cpu_s / jobs:.1f} s")
     for key, verdict in outcome.verdicts:
         if verdict.status != "verified":
             print(f"  {key.name()}: {verdict.describe()}")

@@ -53,6 +53,8 @@ def _show(outcome) -> None:
     counts = outcome.counts
     total = len(outcome.verdicts)
     head = "verified" if outcome.ok else "NOT verified"
+    if outcome.labels:
+        head += f" (not the reference's settings: {', '.join(outcome.labels)})"
     click.echo(f"{outcome.path}: {head}: {counts['verified']}/{total} episodes verified, "
                f"{counts['mismatch']} mismatch, {counts['unverifiable']} unverifiable "
                f"({outcome.elapsed_s:.1f} s, {outcome.processes} "

@@ -1,5 +1,6 @@
 """Verifying runs: every recorded episode replayed through the embedded simulator and every
-metric recomputed (`replay`), over a run folder or a submission bundle (`run`).
+metric recomputed (`replay`), over a run folder or a submission bundle (`run`); bundles
+packed and read back as data only (`bundle`).
 
 Names load on first use (PEP 562).
 """
@@ -14,6 +15,7 @@ _EXPORTS = {
     "RunVerification": ".run", "reference_configs": ".run", "verify_run": ".run",
     "verify_source": ".run",
     "VerifyError": ".errors",
+    "open_bundle": ".bundle", "pack": ".bundle",
 }
 __all__ = sorted(_EXPORTS)
 

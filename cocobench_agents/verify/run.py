@@ -17,6 +17,7 @@ from typing import Any
 from benchmark_adapter.tasks import available_suites, load_tasks
 from cocobench_agents.harness.workers import available_cores
 from cocobench_agents.runfolder import EpisodeKey, RunFolder, RunFolderError, result_key
+from cocobench_agents.verify.bundle import bundle_problems, open_bundle
 from cocobench_agents.verify.errors import VerifyError
 from cocobench_agents.verify.replay import Verdict, verify_episode
 
@@ -37,6 +38,9 @@ class RunVerification:
     problems: list[str] = field(default_factory=list)
     elapsed_s: float = 0.0
     processes: int = 1
+    #: Settings of a bundle that are not the reference's (``max_steps=10``): shown, never
+    #: mixed in with reference rows.
+    labels: list[str] = field(default_factory=list)
 
     @property
     def counts(self) -> Counter[str]:
@@ -49,7 +53,8 @@ class RunVerification:
 
     def as_json(self) -> dict[str, Any]:
         return {"path": str(self.path), "ok": self.ok, "counts": dict(self.counts),
-                "problems": self.problems, "elapsed_s": round(self.elapsed_s, 3),
+                "problems": self.problems, "labels": self.labels,
+                "elapsed_s": round(self.elapsed_s, 3),
                 "episodes": [{**key.as_dict(), **dataclasses.asdict(verdict)}
                              for key, verdict in self.verdicts]}
 
@@ -136,7 +141,19 @@ def _needed(reference: Mapping[str, Mapping[str, Any]], lines: Sequence[Mapping[
 
 def verify_source(path: str | Path, *, reference: Mapping[str, Mapping[str, Any]] | None = None,
                   jobs: int | None = None) -> RunVerification:
-    """`verify_run` on a run folder (`VerifyError` for a path that is none)."""
-    if not Path(path).is_dir():
-        raise VerifyError(f"{path}: not a run folder")
-    return verify_run(path, reference=reference, jobs=jobs)
+    """`verify_run` on a run folder, or on a submission bundle (``.cocobench.tar.gz``),
+    unpacked as data only and checked against its manifest: a bundle that does not cover
+    what it declares is refused (its `problems`); settings that are not the reference's
+    are its `labels`. `VerifyError` for a path that is neither, or a bundle refused whole."""
+    source = Path(path)
+    if source.is_dir():
+        return verify_run(source, reference=reference, jobs=jobs)
+    if not source.is_file():
+        raise VerifyError(f"{path}: no such run folder or bundle")
+    with open_bundle(source) as (root, manifest):
+        problems, labels = bundle_problems(root, manifest)
+        outcome = verify_run(root, reference=reference, jobs=jobs)
+    outcome.path, outcome.labels = source, labels
+    outcome.problems[:0] = problems
+    outcome.problems = [p.replace(str(root), str(source)) for p in outcome.problems]
+    return outcome
