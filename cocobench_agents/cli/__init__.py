@@ -29,6 +29,7 @@ COMMANDS = {
     "export": "export_cmd:export_command",
     "import-inspect": "import_inspect_cmd:import_inspect_command",
     "verify": "verify_cmd:verify_command",
+    "submit": "submit_cmd:submit_command",
 }
 
 # What `cocobench --help` lists, so that it imports no subcommand (a command missing here is
@@ -47,6 +48,7 @@ SUMMARIES = {
     "export": "Write run folders' decisions as a Hugging Face dataset (Parquet + card).",
     "import-inspect": "Write an Inspect log of the cocobench task as a run folder.",
     "verify": "Replay every episode of runs or bundles in the simulator; recompute metrics.",
+    "submit": "Pack a finished run as a submission bundle (manifest, checksums).",
 }
 
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback (the
