@@ -56,7 +56,9 @@ class RetryPolicy:
     async def complete(self, client: ModelClient, request: ModelRequest) -> ModelReply:
         """`client`'s answer to `request`, retrying transient failures; clients that cannot
         fail transiently (the built-ins) are asked once."""
-        if not isinstance(client, AttemptingClient):
+        # What `isinstance(client, AttemptingClient)` tells, without the Protocol check's
+        # cost (every attribute looked up through typing: 2 % of a built-in's decision).
+        if not callable(getattr(client, "attempt", None)):
             return await client.complete(request)
         start = time.perf_counter()
         spent = dict.fromkeys(_SPENT, 0)

@@ -10,6 +10,7 @@ ACTION_LINE = re.compile(r"ACTION:\s*(\d+|DONE)", re.IGNORECASE)
 BARE_INTEGER = re.compile(r"\b(\d+)\b")
 MESSAGE_LINE = re.compile(r"MSG:\s*(.+)")
 MESSAGE_LIMIT = 200
+_MAX_ID_DIGITS = 18  # no menu holds 10^18 entries; int() of 5,000 digits raises
 
 
 @dataclass(frozen=True)
@@ -52,11 +53,23 @@ def parse_reply(text: str | None, menu_ids: Collection[int]) -> ParsedReply:
     choice = match.group(1)
     if choice.upper() == "DONE":
         return ParsedReply("done", mode=mode)
-    action_id = {str(i): i for i in menu_ids}.get(choice)
+    action_id = _menu_id(choice, menu_ids)
     if action_id is None:
         return ParsedReply("invalid_action_id", None, mode, "action id not in current menu",
                            choice)
     return ParsedReply("action", action_id, mode, choice=choice)
+
+
+def _menu_id(choice: str, menu_ids: Collection[int]) -> int | None:
+    """The menu id whose text is exactly `choice`, or None. Only ASCII digits without a
+    leading zero, no longer than any id, can be one (`\\d` also matches other scripts'
+    digits, which `int` reads): a dict of every id's text per decision cost more than the
+    rest of the parse."""
+    if (len(choice) > _MAX_ID_DIGITS or not choice.isascii()
+            or (choice[0] == "0" and choice != "0")):
+        return None
+    action_id = int(choice)
+    return action_id if action_id in menu_ids else None
 
 
 def parse_message(text: str | None) -> str:
