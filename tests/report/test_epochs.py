@@ -17,7 +17,7 @@ from cocobench_agents.cli.report_cmd import report_command
 from cocobench_agents.reports import Bootstrap, build_report, compute_tables, load_runs
 from cocobench_agents.reports.build import CLUSTERED_NOTE
 
-from .helpers import CONSISTENT, FLIPPING, synthetic_run
+from .helpers import CONSISTENT, FLIPPING, RUN_ORACLE, RUN_ORACLE_SHORT, synthetic_run
 
 
 def _csv(path: Path) -> list[dict[str, str]]:
@@ -152,3 +152,15 @@ def test_pass_hat_k_of_uneven_epochs_uses_the_instances_with_k(tmp_path: Path) -
     row = table.records()[0]
     assert (row["pass_hat_1"].n, row["pass_hat_3"].n) == (4, 3)
     assert row["pass_hat_3"].value == 1.0 and not math.isnan(row["pass_hat_1"].value)
+
+
+def test_runs_given_with_arms_are_compared(tmp_path: Path) -> None:
+    """The oracle cut short (1 of 4) against the full oracle (4 of 4), as --arms runs:
+    3 losses, 1 tie, McNemar's exact p = 2 * (1/2)^3."""
+    build_report([RUN_ORACLE, RUN_ORACLE_SHORT], tmp_path / "rep", plots=False, arms=True,
+                 boot=Bootstrap(resamples=200))
+    (row,) = _csv(tmp_path / "rep" / "compare.csv")
+    assert (row["model"], row["baseline"]) == (f"oracle @{RUN_ORACLE_SHORT}",
+                                               f"oracle @{RUN_ORACLE}")
+    assert (row["wins"], row["losses"], row["ties"], row["sr"]) == ("0", "3", "1", "-75.0000")
+    assert float(row["mcnemar_p"]) == 0.25
