@@ -112,8 +112,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
-    """Under `--fail-on-skip`, a skipped test fails the session (exit 1)."""
-    if not session.config.getoption("fail_on_skip"):
+    """Under `--fail-on-skip`, a skipped test fails the session (exit 1). Under xdist the
+    controller decides: it has every worker's reports (a worker's exit status is ignored)."""
+    if not session.config.getoption("fail_on_skip") or hasattr(session.config, "workerinput"):
         return
     reporter = session.config.pluginmanager.get_plugin("terminalreporter")
     skipped = reporter.stats.get("skipped", []) if reporter else []

@@ -5,6 +5,7 @@ test command first, as a newcomer does, then the suite with every extra and no s
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -104,6 +105,15 @@ def test_fail_on_skip_fails_a_session_that_skipped(session):
     session.makepyfile(SKIPS_ONE)
     assert session.runpytest().ret == pytest.ExitCode.OK
     result = session.runpytest("--fail-on-skip")
+    assert result.ret == pytest.ExitCode.TESTS_FAILED
+    assert "--fail-on-skip: 1 tests skipped" in result.stdout.str()
+
+
+def test_fail_on_skip_fails_a_parallel_session_whose_worker_skipped(session, monkeypatch):
+    # Under xdist a worker skips; the controller, which sees its reports, fails the session.
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    session.makepyfile(SKIPS_ONE)
+    result = session.runpytest("-p", "xdist", "-n", "1", "--fail-on-skip")
     assert result.ret == pytest.ExitCode.TESTS_FAILED
     assert "--fail-on-skip: 1 tests skipped" in result.stdout.str()
 
