@@ -1,0 +1,44 @@
+"""The embedded simulator's frames, byte for byte: every agent's PNG (and C0's side-by-side
+view) at every step of the oracle's plan on six shared configs (2, 3 and 4 agents; kitchens,
+living rooms, bedrooms), hashed into one digest. Pinned before the renderer was made faster
+(the static room drawn once, the env's frames kept as pixels): a prompt's frame must not
+change by a byte. The digest changes only with a deliberate change of the picture."""
+
+from __future__ import annotations
+
+import hashlib
+
+import pytest
+
+from benchmark_adapter.episode import Episode
+from benchmark_adapter.oracles import oracle_plan
+from benchmark_adapter.sim.embedded.render import merge_agent_frames
+from benchmark_adapter.tasks import load_task
+from tests.paths import SHARED_TASKS
+
+pytestmark = pytest.mark.slow
+
+CONFIGS = ("A_D1__FloorPlan1__seed0", "C_D2__FloorPlan202__livingroom_3agent_seed1",
+           "G_D1__FloorPlan224__4agent_seed0", "J_D4__FloorPlan307__bedroom_seed0",
+           "K_D3__FloorPlan10__3agent_seed0", "H_D2__FloorPlan301__4agent_seed0")
+DIGEST = "763763402b36740b4ef0a74bfdab37123b2074cefb94aa7f77eafe9fb5f1895c"
+
+
+def frames_digest() -> str:
+    digest = hashlib.sha256()
+    for name in CONFIGS:
+        config = load_task(SHARED_TASKS / f"{name}.json")
+        episode = Episode(config)
+        episode.reset()
+        for call in [None, *oracle_plan(config)]:
+            if call is not None:
+                episode.step(call)
+            frames = [(a, episode.frame(a)) for a in config.agent_ids]
+            for _, png in frames:
+                digest.update(png)
+            digest.update(merge_agent_frames(frames))
+    return digest.hexdigest()
+
+
+def test_the_frames_bytes_are_pinned():
+    assert frames_digest() == DIGEST
