@@ -4,6 +4,7 @@ as decisions: usage, tokens and cost equal what a counting OpenAI-compatible ser
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -156,3 +157,33 @@ def test_the_dry_run_counts_the_pricing_prompt_of_every_seat(demo, fresh_planner
     tokens = [count(model=PRICED, messages=r.messages) for r in requests]
     assert plan.episodes[0].prompt_tokens == sum(tokens) > sum(tokens[:2])
     assert plan.rows[0].max_calls == 2 * config.agent_count * 5
+
+
+@pytest.mark.slow
+def test_the_summary_and_the_reports_cost_table_count_every_call(server, tmp_path, capsys,
+                                                                  fresh_planners):
+    """A whole run (`cocobench run`, then `cocobench report`): the report's planner calls,
+    tokens and cost totals are what the server received and billed."""
+    import csv
+
+    from cocobench_agents.cli import main
+
+    server.program(reply(FIND_BOOK["agent_1"], 101, 5), reply(FIND_BOOK["agent_2"], 102, 6),
+                   reply("ACTION: 4", 53, 3), reply("ACTION: 2", 54, 4),
+                   default=reply("ACTION: DONE", 9, 1))
+    out = tmp_path / "run"
+    code = main(["run", "--planner", SEALED_BID, "--model", PRICED, "--api-base",
+                 server.base_url, "--suite", "demo", "--task-id", "G_D1__DemoLivingRoom1__seed0",
+                 "--obs", "blind", "--max-steps", "6", "--no-preflight", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    assert main(["report", str(out), "--out", str(tmp_path / "report")]) == 0
+    (row,) = csv.DictReader((tmp_path / "report" / "cost.csv").open())
+    price_in, price_out = token_prices(PRICED)
+    prompt_tokens = 101 + 102 + 53 + 54 + 9 * (server.count - 4)
+    completion_tokens = 5 + 6 + 3 + 4 + (server.count - 4)
+    assert int(float(row["planner_calls_total"])) == server.count == 6
+    assert int(float(row["prompt_tokens_total"])) == prompt_tokens
+    cost = prompt_tokens * price_in + completion_tokens * price_out
+    assert float(row["cost_usd_total"]) == pytest.approx(cost, abs=5e-7)  # the CSV's digits
+    (line,) = [json.loads(x) for x in (out / "results.jsonl").read_text().splitlines()]
+    assert line["usage"]["cost_usd"] == round(cost, 6)
