@@ -203,7 +203,8 @@ def _play(state: dict[str, Any], on_step: Callable[[dict[str, Any]], None],
           desk: GivenAnswers) -> dict[str, Any]:
     spec = episode_spec(state)  # type: ignore[arg-type]
     settings = ModelSettings.model_validate(state.get("model_settings") or {})
-    load_prompt_suite(spec.prompt_suite)  # read now, before the episode's event loop starts
+    # read now, before the episode's event loop starts (with its planner's own templates)
+    load_prompt_suite(spec.prompt_suite, planner_spec(spec.planner).templates)
     document, result = asyncio.run(_run(spec, ModelPool(settings, desk=desk),
                                         spec.controller(), on_step))
     return {"result": {**result.model_dump(mode="json"), "model": spec.model_for(None)},
