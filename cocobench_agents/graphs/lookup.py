@@ -50,8 +50,12 @@ def compiled_graph(name: str):
 def _compile(spec: PlannerSpec):
     from langgraph.graph import StateGraph
 
+    from cocobench_agents.graphs.node_errors import checked_nodes
+
     graph = spec.build()
     if not isinstance(graph, StateGraph):
         raise PlannerError(f"planner {spec.name}: its build function returned a "
                            f"{type(graph).__name__}, not a langgraph StateGraph")
+    if spec.name not in PLANNERS:  # a strategy's nodes: each update checked as returned
+        checked_nodes(graph)
     return graph.compile()

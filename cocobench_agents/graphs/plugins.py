@@ -11,14 +11,13 @@ as a `PlannerError` naming the file or entry point, never as a traceback.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import importlib
 import importlib.util
 import inspect
 import re
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -294,20 +293,7 @@ def _as_spec(value: Any, name: str, attribute: str, where: str) -> PlannerSpec:
                            "not a PlannerSpec or a function returning a StateGraph")
     _check_code(spec, where)
     _check_shape(spec, where)
-    return dataclasses.replace(spec, build=_checking_updates(spec.build))
-
-
-def _checking_updates(build: Callable[[], Any]) -> Callable[[], Any]:
-    """`build`, its graph's nodes checking the updates they return (`checked_nodes`): a
-    strategy's malformed record is named where its node returns it."""
-
-    @functools.wraps(build)
-    def build_checked() -> Any:
-        from cocobench_agents.graphs.node_errors import checked_nodes
-
-        return checked_nodes(build())
-
-    return build_checked
+    return spec
 
 
 def default_code(name: str) -> str:
