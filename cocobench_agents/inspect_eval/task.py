@@ -15,7 +15,7 @@ from inspect_ai.model import GenerateConfig
 from cocobench_agents.engine.errors import is_user_error
 from cocobench_agents.engine.resolve import canonical, resolve
 from cocobench_agents.harness.episodes import PlannedEpisode
-from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
+from cocobench_agents.prompts import DEFAULT_SUITE, suite_label
 
 from .params import TaskParameterError, task_request
 from .preflight import PreflightFailed, check_eval_models, check_roles, sampling_notice
@@ -118,7 +118,7 @@ def sample_id(planned: PlannedEpisode) -> str:
 @functools.cache
 def _suite_part(spec: str) -> str:
     """The id part of the prompt suite `spec`: its label (the arm's), none for the default."""
-    return "" if spec == DEFAULT_SUITE else load_prompt_suite(spec).label
+    return "" if spec == DEFAULT_SUITE else suite_label(spec)
 
 
 def _sample(sid: str, planned: PlannedEpisode) -> Sample:

@@ -28,6 +28,7 @@ _EXPORTS = {
     "check_unchanged": ".suite",
     "load_prompt_suite": ".suite",
     "shipped_suite_files": ".suite",
+    "suite_label": ".suite",
     "suite_spec": ".suite",
 }
 __all__ = sorted(_EXPORTS)

@@ -134,6 +134,12 @@ def suite_spec(spec: str) -> str:
     return "+".join([path or base, *sorted(variants)])
 
 
+def suite_label(spec: str) -> str:
+    """`PromptSuite.label` of `spec` (its arm's name) without reading its files."""
+    base, path, variants = _located(spec)
+    return "+".join([Path(path).name if path else base, *sorted(variants)])
+
+
 def _located(spec: str) -> tuple[str, str | None, list[str]]:
     """The base of `spec`, its folder's absolute path (None: a shipped suite) and its
     variants, which must be known."""

@@ -218,3 +218,17 @@ def test_any_default_text_loads_or_is_one_line_naming_its_template(text):
         assert str(exc).startswith("planner template 'pricing': ") and "\n" not in str(exc)
     else:
         assert suite.templates["pricing"] == text
+
+
+def test_a_suites_label_and_spec_need_not_read_its_files(capsys, tmp_path):
+    """An arm's name (Inspect's sample ids) and a run's canonical spec come from the spec
+    alone: a folder holding a planner's template is named without that planner."""
+    from cocobench_agents.prompts import suite_label, suite_spec
+
+    folder = exported(capsys, tmp_path / "auction", SEALED_BID)
+    assert suite_label(f"{folder}+no-hint") == "auction+no-hint"
+    assert suite_spec(f"{folder}+no-hint+no-progress") == f"{folder}+no-hint+no-progress"
+    from cocobench_agents.graphs import planner_spec
+
+    loaded = load_prompt_suite(f"{folder}+no-hint", planner_spec(SEALED_BID).templates)
+    assert (loaded.label, loaded.spec) == ("auction+no-hint", f"{folder}+no-hint")
