@@ -42,6 +42,7 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("__init__", "cli"),  # the Python API's name list, the command: nothing imports them
         ("play",),  # the play page of human seats, served on the viewer's local server
         ("inspect_eval",),  # the Inspect task: the Python API's request, run by Inspect
+        ("leaderboard",),  # verified runs as a static site, linking to the viewer's pages
         ("api", "viewer", "episode_graph", "export", "envs"),  # the other doors: none opens
         # onto another
         ("verify",),  # replays recorded runs and bundles in the embedded simulator

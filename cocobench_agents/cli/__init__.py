@@ -30,6 +30,7 @@ COMMANDS = {
     "import-inspect": "import_inspect_cmd:import_inspect_command",
     "verify": "verify_cmd:verify_command",
     "submit": "submit_cmd:submit_command",
+    "leaderboard": "leaderboard_cmd:leaderboard_command",
 }
 
 # What `cocobench --help` lists, so that it imports no subcommand (a command missing here is
@@ -49,6 +50,7 @@ SUMMARIES = {
     "import-inspect": "Write an Inspect log of the cocobench task as a run folder.",
     "verify": "Replay every episode of runs or bundles in the simulator; recompute metrics.",
     "submit": "Pack a finished run as a submission bundle (manifest, checksums).",
+    "leaderboard": "A static leaderboard site of bundles and runs, ranking what verifies.",
 }
 
 # Mistakes in what the user asked for: reported in one line, exit code 2, no traceback (the
