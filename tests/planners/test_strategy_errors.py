@@ -221,3 +221,30 @@ def test_a_node_parameter_langgraph_never_passes_is_refused_naming_file_and_line
                    "LangGraph passes; name it 'runtime' for the Runtime (runtime.context is "
                    "the PlannerContext)")
     assert not out.exists()
+
+
+@pytest.mark.needs_inspect
+@pytest.mark.slow
+def test_inspect_scores_a_planner_error_as_a_failure_told_apart_never_a_sample_error(
+        strategy, tmp_path):
+    from inspect_ai import eval as inspect_eval
+
+    from cocobench_agents.inspect_eval.scorer import PLANNER_ERROR
+    from cocobench_agents.inspect_eval.solver import RESULT
+    from cocobench_agents.inspect_eval.task import cocobench
+    from tests.inspect_eval.conftest import REPLIES, scripted_mockllm
+
+    [log] = inspect_eval(cocobench(suite="demo", planner=f"{strategy}:build_crashes_on_three",
+                                   obs="blind"),
+                         model=scripted_mockllm(REPLIES), log_dir=str(tmp_path / "logs"),
+                         display="none")
+    assert log.status == "success"  # no sample error: nothing for eval-retry to run again
+    assert all(sample.error is None for sample in log.samples)
+    scores = {s.store[RESULT]["task_id"]: s.scores["cocobench_scorer"] for s in log.samples}
+    failed = scores.pop(THREE_AGENTS)
+    assert failed.value[PLANNER_ERROR] == 1.0 and failed.value["success"] == 0.0
+    assert failed.explanation.startswith("KeyError: 'agent_3' in node 'seated_step' "
+                                         f"({strategy}, line ")
+    assert {score.value[PLANNER_ERROR] for score in scores.values()} == {0.0}
+    share = {score.name: score for score in log.results.scores}[PLANNER_ERROR]
+    assert share.metrics["mean"].value == pytest.approx(1 / 4)  # 1 of the demo's 4
