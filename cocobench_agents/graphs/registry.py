@@ -72,7 +72,7 @@ class PlannerSpec:
     # The most model calls one seat makes in a round (a step, for "step"): a strategy that
     # asks a robot again within a round declares how often (claim-board: 2).
     calls_per_seat: int = 1
-    # Its own prompt templates (name → default text), which `ctx.ask` renders: part of the
+    # Its own prompt templates (name → default text), which `ask` renders: part of the
     # prompt suite (a suite folder's NAME.txt replaces one; the suite's hash covers them).
     templates: Mapping[str, str] = field(default_factory=dict, hash=False)
 

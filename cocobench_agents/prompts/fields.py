@@ -41,7 +41,7 @@ TEMPLATE_FIELDS: dict[str, frozenset[str]] = {
     "hint_relay": frozenset({"buffer", "producer", "consumer", "targets"}),
 }
 
-#: The fields `ctx.ask` fills in a planner's own template, besides those the strategy gives:
+#: The fields `ask` (graphs) fills in a planner's own template, besides those the strategy gives:
 #: the deciding agent's view (`me`, `inv`), or the team's (`state`) when it asks for the team;
 #: `menu` lists the ask's choices. The section fields follow the suite's variants.
 ASK_FIELDS = frozenset({"me", "n", "agents", "view", "goal", "progress_section", "hint",
@@ -54,7 +54,7 @@ _SAMPLE = {"n": 2}
 
 
 def own_template_fields(default: str) -> frozenset[str]:
-    """The fields a planner's own template may use: those `ctx.ask` fills, and those its
+    """The fields a planner's own template may use: those `ask` fills, and those its
     default text uses (which the strategy gives)."""
     return ASK_FIELDS | field_names(default)
 

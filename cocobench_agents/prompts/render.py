@@ -76,7 +76,7 @@ def render_distributed(suite: PromptSuite, inputs: PromptInputs, me: str, broadc
 
 def render_own(suite: PromptSuite, template: str, inputs: PromptInputs, me: str | None,
                fields: Mapping[str, object], *, placeholders: bool = False) -> str:
-    """A planner's own `template` (`PlannerSpec.templates`), as `ctx.ask` renders it: the
+    """A planner's own `template` (`PlannerSpec.templates`), as `ask` renders it: the
     strategy's `fields` over the view of agent `me` (the team's when None; `ASK_FIELDS`),
     whose `menu` is `inputs.menu_lines`. A field neither gives is a `ValueError` naming it; with
     `placeholders`, it is shown as `{name}` (a preview: the strategy's fields are unknown)."""
@@ -88,12 +88,13 @@ def render_own(suite: PromptSuite, template: str, inputs: PromptInputs, me: str 
         return suite.templates[template].format_map(values)
     except KeyError as exc:
         if template not in suite.templates:
+            own = ", ".join(sorted(suite.own)) or "none"
             raise ValueError(f"no template {template!r} in prompt suite {suite.spec} (a "
-                           f"planner's own templates: {', '.join(sorted(suite.own)) or 'none'}; "
-                           "declare it in the PlannerSpec's templates)") from None
-        raise ValueError(f"template {template!r} uses the field {{{exc.args[0]}}}, which was not "
-                       f"given (given: {', '.join(sorted(fields)) or 'none'}; filled: "
-                       f"{', '.join(sorted(view))})") from None
+                             f"planner's own templates: {own}; declare it in the "
+                             "PlannerSpec's templates)") from None
+        raise ValueError(f"template {template!r} uses the field {{{exc.args[0]}}}, which was "
+                         f"not given (given: {', '.join(sorted(fields)) or 'none'}; filled: "
+                         f"{', '.join(sorted(view))})") from None
 
 
 class _Placeholders(dict):
