@@ -213,10 +213,10 @@ class CoCoBenchParallelEnv(ParallelEnv):
                                                self._frames(s) if image else None)
                 for s in self.agents}
 
-    def _frames(self, seat: str) -> list[bytes]:
+    def _frames(self, seat: str) -> list[np.ndarray]:
         episode = self._live()
         agents = episode.spec.config.agent_ids if seat in (TEAM_SEAT, LEADER_SEAT) else [seat]
-        return [episode.episode.frame(a) for a in agents]
+        return [episode.episode.frame_pixels(a) for a in agents]
 
     def _info(self) -> dict[str, Any]:
         episode = self._live()
@@ -403,16 +403,11 @@ def _robot_order(agent: str) -> tuple[int, str]:
 
 def _frame_shape(config: TaskConfig) -> tuple[int, ...]:
     """The shape of one robot's frame (rendered once)."""
-    import io
-
-    from PIL import Image
-
     from benchmark_adapter.episode import Episode
 
     world = Episode(config)
     world.reset()
-    array = np.asarray(Image.open(io.BytesIO(world.frame(config.agent_ids[0]))).convert("RGB"))
-    return tuple(array.shape)
+    return tuple(world.frame_pixels(config.agent_ids[0]).shape)
 
 
 def parallel_env(source: str, *, condition: str, task_id: str | None = None,

@@ -15,7 +15,6 @@ an RGB array (the team's seat and the leader: every robot's frame, ``(robots, H,
 
 from __future__ import annotations
 
-import io
 import multiprocessing
 import string
 from collections.abc import Sequence
@@ -24,7 +23,6 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector.utils import shared_memory
-from PIL import Image
 
 from cocobench_agents.envs.seated import DONE, EnvError, SeatAction, SeatView
 from cocobench_agents.graphs.registry import LEADER_SEAT, TEAM_SEAT
@@ -131,9 +129,9 @@ class SeatSpaces:
             fields["frame"] = spaces.Box(0, 255, image_shape, np.uint8)
         self.observation = spaces.Dict(fields)
 
-    def encode(self, view: SeatView, frames: list[bytes] | None) -> dict[str, Any]:
-        """`view` as an observation of these spaces (`frames`: the PNGs under image
-        conditions)."""
+    def encode(self, view: SeatView, frames: list[np.ndarray] | None) -> dict[str, Any]:
+        """`view` as an observation of these spaces (`frames`: the robots' RGB frames under
+        image conditions)."""
         ids = np.zeros(self.max_menu + 2, np.int8)
         ids[0] = 1  # DONE
         for option in view.menu:
@@ -150,14 +148,13 @@ class SeatSpaces:
             obs["frame"] = self._image(frames or [])
         return obs
 
-    def _image(self, frames: list[bytes]) -> np.ndarray:
-        arrays = [np.asarray(Image.open(io.BytesIO(f)).convert("RGB")) for f in frames]
+    def _image(self, frames: list[np.ndarray]) -> np.ndarray:
         if self.seat in (TEAM_SEAT, LEADER_SEAT):
             out = np.zeros(self.image_shape, np.uint8)
-            for i, array in enumerate(arrays):
+            for i, array in enumerate(frames):
                 out[i] = array
             return out
-        return arrays[0] if arrays else np.zeros(self.image_shape, np.uint8)
+        return frames[0] if frames else np.zeros(self.image_shape, np.uint8)
 
     def decode(self, action: Any) -> SeatAction:
         """An action of this seat's space (an id, or for a broadcasting seat a dict with

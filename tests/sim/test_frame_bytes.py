@@ -42,3 +42,22 @@ def frames_digest() -> str:
 
 def test_the_frames_bytes_are_pinned():
     assert frames_digest() == DIGEST
+
+
+def test_the_pixels_an_environment_reads_are_the_pngs():
+    """`Episode.frame_pixels` (the embedded simulator's pixels, no PNG made) is the PNG's
+    picture, at reset and after steps, for every agent."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    config = load_task(SHARED_TASKS / f"{CONFIGS[1]}.json")
+    episode = Episode(config)
+    episode.reset()
+    for call in [None, *list(oracle_plan(config))[:6]]:
+        if call is not None:
+            episode.step(call)
+        for agent in config.agent_ids:
+            png = np.asarray(Image.open(io.BytesIO(episode.frame(agent))).convert("RGB"))
+            assert np.array_equal(episode.frame_pixels(agent), png)

@@ -89,9 +89,22 @@ class EmbeddedController:
         """PNG of agent `agent`'s egocentric view."""
         from benchmark_adapter.sim.embedded.render import render_agent_frame
 
+        return render_agent_frame(self._view(agent), width, height)
+
+    def frame_rgb(self, agent: int, width: int = 300, height: int = 300) -> Any:
+        """The pixels of `frame` as an RGB array (height, width, 3), no PNG encoded: what
+        an environment's observation holds."""
+        import numpy
+
+        from benchmark_adapter.sim.embedded.render import draw_agent_view
+
+        return numpy.asarray(draw_agent_view(self._view(agent), width, height))
+
+    def _view(self, agent: int) -> dict[str, Any]:
+        """What the renderer draws for agent `agent`: its pose, objects and the others."""
         world, meta = self._require_reset()
         md = meta.snapshot()[agent]
-        view = {
+        return {
             "agent": md["agent"],
             "visibilityDistance": world.visibility_distance,
             "fieldOfView": 90,
@@ -107,7 +120,6 @@ class EmbeddedController:
                 if a.index != agent
             ],
         }
-        return render_agent_frame(view, width, height)
 
     def stop(self) -> None:
         """Nothing to release: the world lives in this process."""

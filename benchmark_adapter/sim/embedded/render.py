@@ -7,9 +7,12 @@ pure function of the input dict: the same view always yields byte-identical PNG 
 from __future__ import annotations
 
 import colorsys
+import functools
 import io
 import math
+import threading
 import zlib
+from collections import OrderedDict
 
 from PIL import Image, ImageDraw, ImageFont
 
@@ -31,10 +34,17 @@ TYPE_SIZES = {
     "Shelf": (0.8, 0.1),
 }
 Box = tuple[float, float, float, float]
+#: How many pictures are kept by what they show (`_picture_key`): an agent sees the same view
+#: again and again (a Find brings it back to the same spot), and a picture takes ~1 ms to draw.
+PICTURES_KEPT = 64
+_pictures: OrderedDict[tuple, Image.Image] = OrderedDict()
+_pictures_lock = threading.Lock()
 
 
+@functools.lru_cache(maxsize=4)
 def _font(size: int = 12) -> ImageFont.ImageFont:
     # Pillow >= 10.1 ships a scalable default font; older versions only the tiny bitmap one.
+    # Loaded once: loading it took a tenth of a frame's time.
     try:
         return ImageFont.load_default(size=size)
     except TypeError:
@@ -134,16 +144,18 @@ def _visible_items(view: dict, cam: _Camera) -> list[tuple[float, str, dict]]:
     return items
 
 
-def _draw_background(draw: ImageDraw.ImageDraw, cam: _Camera) -> None:
-    draw.rectangle((0, 0, cam.w, cam.horizon), fill=WALL)
-    draw.rectangle((0, cam.horizon, cam.w, cam.h), fill=FLOOR)
+@functools.lru_cache(maxsize=32)
+def _room(w: int, h: int, horizon: float) -> Image.Image:
+    """The static room of a camera (wall, floor, its lines, the horizon), drawn once per size
+    and tilt; each frame draws on a copy."""
+    img = Image.new("RGB", (w, h), WALL)
+    draw = ImageDraw.Draw(img)
+    draw.rectangle((0, horizon, w, h), fill=FLOOR)
     # Floor lines converging to the centre give a sense of depth and of the camera tilt.
     for k in range(-4, 5):
-        draw.line(
-            (cam.w / 2 + k * 12, cam.horizon, cam.w / 2 + k * cam.w / 3, cam.h),
-            fill=(140, 122, 103),
-        )
-    draw.line((0, cam.horizon, cam.w, cam.horizon), fill=HORIZON, width=2)
+        draw.line((w / 2 + k * 12, horizon, w / 2 + k * w / 3, h), fill=(140, 122, 103))
+    draw.line((0, horizon, w, horizon), fill=HORIZON, width=2)
+    return img
 
 
 def _draw_object(draw: ImageDraw.ImageDraw, obj: dict, box: Box) -> None:
@@ -228,21 +240,64 @@ def _png(img: Image.Image) -> bytes:
 
 
 def render_agent_frame(view: dict, width: int = 300, height: int = 300) -> bytes:
-    """PNG bytes of what one agent sees (schematic first-person view, deterministic).
+    """PNG bytes of what one agent sees (schematic first-person view, deterministic): the
+    picture `draw_agent_view` draws."""
+    return _png(draw_agent_view(view, width, height))
+
+
+def draw_agent_view(view: dict, width: int = 300, height: int = 300) -> Image.Image:
+    """The RGB picture of what one agent sees (schematic first-person view, deterministic).
 
     Objects inside the horizontal view cone and within ``visibilityDistance`` (and not held) are
     drawn far-to-near with ``Type (state)`` labels; other agents appear as blue figures labelled
     with their name; the held object is shown as ``holding: Type`` in the bottom-right corner.
-    Width and height are clamped up to at least 300 px.
+    Width and height are clamped up to at least 300 px. The picture may be shared with an
+    earlier call that showed the same: copy it before drawing on it.
     """
     w, h = max(int(width), MIN_SIZE), max(int(height), MIN_SIZE)
     cam = _Camera(view, w, h)
-    img = Image.new("RGB", (w, h), WALL)
+    items = _visible_items(view, cam)
+    key = _picture_key(cam, items, view)
+    with _pictures_lock:
+        img = _pictures.get(key)
+        if img is not None:
+            _pictures.move_to_end(key)
+            return img
+    img = _draw_view(view, cam, items)
+    with _pictures_lock:
+        _pictures[key] = img
+        while len(_pictures) > PICTURES_KEPT:
+            _pictures.popitem(last=False)
+    return img
+
+
+def _picture_key(cam: _Camera, items: list[tuple[float, str, dict]], view: dict) -> tuple:
+    """Everything a picture shows: the camera, each drawn thing's kind, label, place and the
+    states its shape shows, in drawing order, and what the agent holds."""
+    drawn = tuple(
+        (kind, str(rec.get("name", "agent")) if kind == "agent" else object_label(rec),
+         tuple(rec["position"].get(axis) for axis in "xyz"), rec.get("objectType"),
+         *(bool(rec.get(state)) for state in _SHOWN_STATES))
+        for _, kind, rec in items
+    )
+    held = tuple(
+        str(o.get("objectType") or o.get("objectId")) for o in view.get("inventoryObjects") or []
+    )
+    return (cam.w, cam.h, cam.x, cam.z, cam.eye, cam.yaw, cam.fov, cam.reach, cam.horizon,
+            drawn, held)
+
+
+#: The states `_draw_object` shows by the shape (the label shows its own).
+_SHOWN_STATES = ("receptacle", "openable", "isOpen", "isSliced", "toggleable", "isToggled")
+
+
+def _draw_view(view: dict, cam: _Camera, items: list[tuple[float, str, dict]]) -> Image.Image:
+    w, h = cam.w, cam.h
+    img = _room(w, h, cam.horizon).copy()
     draw = ImageDraw.Draw(img)
     font = _font()
-    _draw_background(draw, cam)
     labels: list[tuple[str, Box]] = []
-    for _, kind, rec in _visible_items(view, cam):
+    for _, kind, rec in items:
         if kind == "agent":
             box = cam.project(rec["position"], (0.45, 1.1))
             _draw_agent(draw, box)
@@ -258,7 +313,7 @@ def render_agent_frame(view: dict, width: int = 300, height: int = 300) -> bytes
     if held:
         draw.rectangle(held[1], fill=(255, 244, 190), outline=(120, 100, 30), width=2)
         draw.text((held[1][0] + 5, held[1][1] + 4), held[0], fill=(0, 0, 0), font=font, anchor="lt")
-    return _png(img)
+    return img
 
 
 def merge_agent_frames(frames: list[tuple[str, bytes]]) -> bytes:
