@@ -12,12 +12,18 @@ menu and mask), and prints medians over repeated runs:
   actions are far costlier for the simulator than an oracle's plan: a `Find` of an object
   out of view searches poses), so the figure the environment itself adds is shown apart;
 - reset time in milliseconds (aim: < 5 ms).
+Image conditions (``C0_image``, ``D1_image``: every step's frames rendered and decoded into
+the observation's RGB arrays) are measured too, against their own aim: >= 500 env steps/s.
+
+With ``--episodes N`` it first plays N whole episodes of ``--memory-source`` (default
+cocobench-full, 897 instances drawn at random) under C0_blind and prints the process's
+resident memory every 1,000 episodes (aim: flat after warm-up).
 
 With ``--processes N`` it measures in N processes at once, each with its own environment (how a
 vectorised trainer runs them), and prints the per-process median and the sum.
 
 Usage: python bench/env.py [--repeats N] [--steps N] [--source SOURCE] [--condition C]…
-       [--processes N]
+       [--processes N] [--episodes N [--memory-source SOURCE] [--every N]]
 (needs the env extra: pip install -e '.[env]')
 """
 
@@ -37,6 +43,42 @@ from cocobench_agents.envs import parallel_env
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "cocobench-data" / "tasks"
 THOR_ACTIONS_PER_S = (13, 22)
+DEFAULT_CONDITIONS = ("C0_blind", "D1_blind", "C0_image", "D1_image")
+
+
+def aim(condition: str, text: bool) -> int:
+    """The env steps/s aimed at: 500 under image conditions, else 1,000 with text, 5,000
+    without."""
+    if condition.endswith("_image"):
+        return 500
+    return 1000 if text else 5000
+
+
+def resident_mb() -> float:
+    """This process's resident memory now, in MB."""
+    import psutil
+
+    return psutil.Process().memory_info().rss / 2**20
+
+
+def memory(source: str, condition: str, episodes: int, every: int) -> None:
+    """Play `episodes` whole episodes with random legal moves, printing the resident memory
+    every `every` episodes."""
+    environment = parallel_env(source, condition=condition)
+    rng = np.random.default_rng(0)
+    observations, _ = environment.reset(seed=0)
+    print(f"memory: {episodes:,} episodes of {source} ({len(environment.configs)} instances), "
+          f"{condition}, text on; start {resident_mb():,.0f} MB")
+    started, steps = time.perf_counter(), 0
+    for played in range(1, episodes + 1):
+        while environment.agents:
+            observations, *_ = environment.step(random_actions(observations, rng))
+            steps += 1
+        if played % every == 0:
+            print(f"  {played:7,} episodes  RSS {resident_mb():7,.0f} MB  ({steps:,} steps, "
+                  f"{time.perf_counter() - started:,.0f} s)", flush=True)
+        observations, _ = environment.reset()
+    environment.close()
 
 
 def random_actions(observations: dict, rng: np.random.Generator) -> dict:
@@ -142,16 +184,23 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--source", default=str(SHARED))
     parser.add_argument("--condition", action="append",
-                        help="conditions to measure (default: C0_blind, D1_blind)")
+                        help=f"conditions to measure (default: {', '.join(DEFAULT_CONDITIONS)})")
     parser.add_argument("--processes", type=int, default=1,
                         help="measure in this many processes at once (one environment each) "
                              "and print the per-process median and the sum")
+    parser.add_argument("--episodes", type=int, default=0,
+                        help="first play this many episodes, printing the resident memory")
+    parser.add_argument("--memory-source", default="cocobench-full")
+    parser.add_argument("--every", type=int, default=1000,
+                        help="print the resident memory every this many episodes")
     args = parser.parse_args()
+    if args.episodes:
+        memory(args.memory_source, "C0_blind", args.episodes, args.every)
     where = (f"one core (pid {os.getpid()})" if args.processes == 1 else
              f"{args.processes} processes at once on {os.cpu_count()} cores")
     print(f"{where}, {args.steps} steps per run, median of {args.repeats} runs, source "
           f"{args.source}")
-    for condition in args.condition or ["C0_blind", "D1_blind"]:
+    for condition in args.condition or DEFAULT_CONDITIONS:
         for text in (True, False):
             task = (args.source, condition, text, args.steps, args.repeats)
             if args.processes == 1:
@@ -163,9 +212,9 @@ def main() -> None:
                 total = f"  all {args.processes}: {sum(f['rate'] for f in each):9,.0f} steps/s"
             rate = figures["rate"]
             low, high = (rate / a for a in reversed(THOR_ACTIONS_PER_S))
-            aim = 1000 if text else 5000
             print(f"{condition:9} text={'on ' if text else 'off'}  env steps/s "
-                  f"{rate:8,.0f} (aim >= {aim:,})  x{low:,.0f}–{high:,.0f} AI2-THOR  "
+                  f"{rate:8,.0f} (aim >= {aim(condition, text):,})  "
+                  f"x{low:,.0f}–{high:,.0f} AI2-THOR  "
                   f"skill steps/s {figures['skill']:8,.0f}  env's own "
                   f"{figures['own']:5.0f} µs/step  reset {figures['reset']:6.2f} ms "
                   f"(aim < 5){total}")
