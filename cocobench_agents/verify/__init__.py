@@ -10,7 +10,7 @@ from __future__ import annotations
 from cocobench_agents.lazy import lazy_getattr
 
 _EXPORTS = {
-    "Verdict": ".replay", "config_hash": ".replay", "first_difference": ".replay",
+    "Verdict": ".replay", "first_difference": ".replay",
     "replay": ".replay", "verify_episode": ".replay",
     "RunVerification": ".run", "reference_configs": ".run", "verify_run": ".run",
     "verify_source": ".run",

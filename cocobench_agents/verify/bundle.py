@@ -54,10 +54,6 @@ MAX_TOTAL_BYTES = 16 * 2**30
 #: Settings the reference runs with: a bundle recorded otherwise is labelled with them.
 REFERENCE_SETTINGS: dict[str, Any] = {"max_steps": None, "stable_ids": False,
                                       "backend": EMBEDDED}
-#: Settings that say what was evaluated (a row of the leaderboard), not how it was scored.
-ROW_SETTINGS = ("sources", "eval_set", "models", "agent_models", "planners", "obs_modes",
-                "conditions", "prompt_suites", "epochs", "baselines", "only_cell",
-                "only_family", "only_dim", "task_ids", "limit", "missing")
 
 
 def pack(run: str | Path, out: str | Path) -> dict[str, Any]:
@@ -301,15 +297,15 @@ def _check_files(path: str | Path, root: Path, names: set[str],
             raise VerifyError(f"{path}: refused: no {required}")
 
 
-def bundle_problems(root: Path, manifest: Mapping[str, Any]) -> tuple[list[str], list[str]]:
-    """What refuses an unpacked bundle (it does not cover what it declares, or declares
-    another instance list than its run's, or the suite's), and its labels (settings that
-    are not the reference's)."""
+def bundle_problems(root: Path, manifest: Mapping[str, Any]) -> list[str]:
+    """What refuses an unpacked bundle: it does not cover what it declares, or declares
+    another instance list or other settings than its run's, or not all of the suite it
+    names."""
     folder = RunFolder(root)
     try:
         record = folder.run_record()
     except RunFolderError as exc:
-        return [f"refused: {exc}"], []
+        return [f"refused: {exc}"]
     plan = record.get("plan") or {}
     suite = manifest.get("suite") or {}
     instances = sorted(plan.get("task_ids") or [])
@@ -325,11 +321,20 @@ def bundle_problems(root: Path, manifest: Mapping[str, Any]) -> tuple[list[str],
         problems.append(f"refused: the manifest's settings are not its run's ({changed[0]})")
     problems += _whole_suite_problems(settings, instances)
     scan = folder.scan_results(check_trajectories=True)
-    problems += [f"refused: does not cover what it declares: {p}"
-                 for p in coverage_problems(record, scan.latest)]
-    labels = [f"{name}={json.dumps(value)}" for name, value in
-              sorted(non_reference(settings).items())]
-    return problems, labels
+    return problems + [f"refused: does not cover what it declares: {p}"
+                       for p in coverage_problems(record, scan.latest)]
+
+
+def settings_labels(root: Path) -> list[str]:
+    """The settings of the run at `root` that are not the reference's (``max_steps=10``);
+    none for a folder whose run.json cannot be read (its verification says why)."""
+    try:
+        record = RunFolder(root).run_record()
+    except RunFolderError:
+        return []
+    settings = shaping_settings(record.get("request") or {})
+    return [f"{name}={json.dumps(value)}" for name, value in
+            sorted(non_reference(settings).items())]
 
 
 def _whole_suite_problems(settings: Mapping[str, Any], instances: list[str]) -> list[str]:

@@ -12,7 +12,6 @@ benchmark's own scorer and compared with the result line.
 
 from __future__ import annotations
 
-import hashlib
 import json
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -70,13 +69,6 @@ class Mismatch(Exception):
     def __init__(self, field: str, detail: str, step: int | None = None) -> None:
         super().__init__(detail)
         self.field, self.detail, self.step = field, detail, step
-
-
-def config_hash(config: Mapping[str, Any]) -> str:
-    """The sha256 of a task config's canonical JSON (keys sorted): what a reference instance
-    is recognised by."""
-    text = json.dumps(config, sort_keys=True, ensure_ascii=False, separators=(",", ":"))
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def verify_episode(document: Mapping[str, Any] | None, line: Mapping[str, Any], *,

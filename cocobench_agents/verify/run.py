@@ -3,12 +3,13 @@ parallel processes where the run is large enough to pay for them."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import multiprocessing
 import time
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +18,7 @@ from typing import Any
 from benchmark_adapter.tasks import available_suites, load_tasks
 from cocobench_agents.harness.workers import available_cores
 from cocobench_agents.runfolder import EpisodeKey, RunFolder, RunFolderError, result_key
-from cocobench_agents.verify.bundle import bundle_problems, open_bundle
+from cocobench_agents.verify.bundle import bundle_problems, open_bundle, settings_labels
 from cocobench_agents.verify.errors import VerifyError
 from cocobench_agents.verify.replay import Verdict, verify_episode
 
@@ -143,17 +144,33 @@ def verify_source(path: str | Path, *, reference: Mapping[str, Mapping[str, Any]
                   jobs: int | None = None) -> RunVerification:
     """`verify_run` on a run folder, or on a submission bundle (``.cocobench.tar.gz``),
     unpacked as data only and checked against its manifest: a bundle that does not cover
-    what it declares is refused (its `problems`); settings that are not the reference's
-    are its `labels`. `VerifyError` for a path that is neither, or a bundle refused whole."""
+    what it declares is refused (its `problems`). Settings that are not the reference's are
+    the outcome's `labels`. `VerifyError` for a path that is neither, or a bundle refused
+    whole."""
+    with opened(path) as (folder, manifest):
+        return verify_opened(path, folder, manifest, reference=reference, jobs=jobs)
+
+
+@contextlib.contextmanager
+def opened(path: str | Path) -> Iterator[tuple[Path, dict[str, Any] | None]]:
+    """A run folder as it is (no manifest), or a bundle unpacked for the duration, with its
+    manifest (`bundle.open_bundle`)."""
     source = Path(path)
     if source.is_dir():
-        return verify_run(source, reference=reference, jobs=jobs)
-    if not source.is_file():
+        yield source, None
+    elif source.is_file():
+        with open_bundle(source) as unpacked:
+            yield unpacked
+    else:
         raise VerifyError(f"{path}: no such run folder or bundle")
-    with open_bundle(source) as (root, manifest):
-        problems, labels = bundle_problems(root, manifest)
-        outcome = verify_run(root, reference=reference, jobs=jobs)
-    outcome.path, outcome.labels = source, labels
-    outcome.problems[:0] = problems
-    outcome.problems = [p.replace(str(root), str(source)) for p in outcome.problems]
+
+
+def verify_opened(path: str | Path, folder: Path, manifest: Mapping[str, Any] | None, *,
+                  reference: Mapping[str, Mapping[str, Any]] | None = None,
+                  jobs: int | None = None) -> RunVerification:
+    """The verification of an `opened` source: its episodes, and a bundle's own checks."""
+    problems = bundle_problems(folder, manifest) if manifest is not None else []
+    outcome = verify_run(folder, reference=reference, jobs=jobs)
+    outcome.path, outcome.labels = Path(path), settings_labels(folder)
+    outcome.problems = [p.replace(str(folder), str(path)) for p in problems + outcome.problems]
     return outcome
