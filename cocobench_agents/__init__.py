@@ -5,7 +5,8 @@ The Python API (loaded on first use, so that importing the package stays cheap):
 its flags, config file and environment); `plan(request)` says what it would cost without
 calling a model; `evaluate` / `evaluate_async` build the request from keywords and run it;
 `score` rescores a trajectory; `report` writes the paper's tables; `load_tasks` reads
-suites, files and folders.
+suites, files and folders; `verify_source` replays a run folder or submission bundle in the
+simulator; `build_leaderboard` writes the leaderboard site of what verifies.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ _EXPORTS = {
     "RequestError": "cocobench_agents.engine.errors",
     "RunStopped": "cocobench_agents.engine.errors",
     "load_tasks": "benchmark_adapter.tasks",
+    "verify_source": "cocobench_agents.verify", "build_leaderboard": "cocobench_agents.leaderboard",
 }
 __all__ = ["__version__", *sorted(_EXPORTS)]
 
