@@ -83,7 +83,8 @@ def node_failure(exc: BaseException) -> NodeFailure | None:
     infrastructure, not of the strategy)."""
     if isinstance(exc, MalformedUpdate):
         return NodeFailure(node=exc.node, error=describe_error(exc), file=exc.file,
-                           line=exc.line, frames=_def_frame(exc.file, exc.line, exc.function))
+                           line=exc.line,
+                           frames=_def_frame(exc.file, exc.line, exc.function_name))
     if isinstance(exc, EndlessLoop):
         return endless_loop(exc.limit, exc.last_nodes, exc.graph)
     task = _TASK_NOTE.search("\n".join(getattr(exc, "__notes__", ())))
@@ -135,7 +136,7 @@ class MalformedUpdate(TypeError):
 
     def __init__(self, problem: str, node: str, function: Callable[..., Any]) -> None:
         super().__init__(problem)
-        self.node, self.function = node, getattr(function, "__qualname__", node)
+        self.node, self.function_name = node, getattr(function, "__qualname__", node)
         self.file, self.line = source_of(function)
 
 
@@ -154,8 +155,7 @@ def checked_nodes(graph: Any) -> Any:
             function = getattr(runnable, attribute, None)
             if callable(function):
                 setattr(runnable, attribute, _checking(function, name))
-        if hasattr(runnable, "afunc"):
-            setattr(runnable, _CHECKED, True)
+                setattr(runnable, _CHECKED, True)
     return graph
 
 
