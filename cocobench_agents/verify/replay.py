@@ -87,6 +87,12 @@ def verify_episode(document: Mapping[str, Any] | None, line: Mapping[str, Any], 
         return _verify(document, line, prompts, reference or {}, stable_ids)
     except Mismatch as found:
         return Verdict("mismatch", found.step, found.field, found.detail)
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError, RecursionError,
+            OverflowError) as exc:
+        # A recording no run writes (a field of another type, a call the skills cannot
+        # parse): it does not replay, and says what failed.
+        return Verdict("mismatch", field="trajectory", detail=f"the replay cannot execute "
+                       f"the recording ({type(exc).__name__}: {str(exc)[:200]})")
 
 
 def _verify(document: Mapping[str, Any], line: Mapping[str, Any],

@@ -9,6 +9,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from cocobench_agents.cli import main
 from cocobench_agents.runfolder import result_key
@@ -282,3 +284,44 @@ def test_parallel_and_serial_verdicts_agree(copy_run: CopyRun, monkeypatch) -> N
     assert parallel.processes == 2
     assert parallel.verdicts == serial.verdicts
     assert serial.counts == {"verified": 7, "mismatch": 1}
+
+
+def _leaves(value: Any, path: tuple = ()) -> list[tuple]:
+    if isinstance(value, dict):
+        return [leaf for k, v in value.items() for leaf in _leaves(v, (*path, k))]
+    if isinstance(value, list):
+        return [leaf for i, v in enumerate(value) for leaf in _leaves(v, (*path, i))]
+    return [path]
+
+
+JSON = st.recursive(st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False)
+                    | st.text(max_size=20),
+                    lambda inner: st.lists(inner, max_size=3)
+                    | st.dictionaries(st.text(max_size=5), inner, max_size=3), max_leaves=6)
+
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(data=st.data())
+def test_a_stranger_edits_any_field_and_verify_answers_with_a_verdict(demo_run: Path,
+                                                                      data: Any) -> None:
+    """Any leaf of a trajectory (its config, items, decisions) replaced by any JSON value:
+    a verdict, never an exception; a verdict of `verified` only where the edit is one the
+    recording does not depend on (a decision's own usage report)."""
+    import copy
+
+    from cocobench_agents.verify import verify_episode
+
+    line = episode_line(demo_run)
+    original = trajectory(demo_run, line)
+    document = copy.deepcopy(original)
+    path = data.draw(st.sampled_from(_leaves(document)))
+    value = data.draw(JSON)
+    holder = document
+    for part in path[:-1]:
+        holder = holder[part]
+    holder[path[-1]] = value
+    verdict = verify_episode(document, line, prompts=prompts(demo_run, line))
+    assert verdict.status in ("verified", "mismatch")
+    if verdict.status == "verified" and document != original:
+        assert "policy_decision" in path or "planner_decisions" in path, (path, value)
