@@ -69,6 +69,11 @@ def evaluate(source: str | Path | Sequence[str | Path] | None = None, *,
         warnings.warn(f"{results.errors} episodes of {out} ended on infrastructure errors; "
                       "re-run them with evaluate(..., resume=True, retry_errors=True)",
                       stacklevel=2)
+    if results.planner_errors:  # the strategy's own: a re-run fails the same way
+        warnings.warn(f"{results.planner_errors} episodes of {out} ended on a planner error "
+                      "(the strategy's own code: each result's planner_error names the node, "
+                      "file and line); fix the strategy, then evaluate into a new out",
+                      stacklevel=2)
     return results
 
 

@@ -248,3 +248,18 @@ def test_inspect_scores_a_planner_error_as_a_failure_told_apart_never_a_sample_e
     assert {score.value[PLANNER_ERROR] for score in scores.values()} == {0.0}
     share = {score.name: score for score in log.results.scores}[PLANNER_ERROR]
     assert share.metrics["mean"].value == pytest.approx(1 / 4)  # 1 of the demo's 4
+
+
+def test_evaluate_counts_a_planner_error_apart_and_warns_without_retry_advice(strategy,
+                                                                             tmp_path):
+    import warnings
+
+    import cocobench_agents as cb
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        results = cb.evaluate("demo", models="greedy", max_steps=4, out=tmp_path / "r",
+                              planners=[f"{strategy}:build_crashes_on_three"])
+    assert (results.errors, results.planner_errors) == (0, 1)
+    (told,) = [str(w.message) for w in caught if "planner error" in str(w.message)]
+    assert "retry_errors" not in told and "fix the strategy" in told
