@@ -54,8 +54,9 @@ LAYERS: dict[str, tuple[tuple[str, ...], ...]] = {
         ("graphs",),  # planners never import the harness or the runner
         ("tools",),
         ("models", "prompts"),  # never import the graphs
-        ("setting_kinds", "version", "lazy", "conditions", "partial_output"),  # conditions:
-        # `C0_image` names; partial_output: a new folder taken back on failure
+        ("setting_kinds", "version", "lazy", "conditions", "partial_output", "rewards"),
+        # conditions: `C0_image` names; partial_output: a new folder taken back on failure;
+        # rewards: the training reward, for the environments and the export
     ),
 }
 #: Units that may import only some of the units below them (besides benchmark_adapter).

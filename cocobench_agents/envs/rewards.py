@@ -25,13 +25,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from benchmark_adapter.metrics import EpisodeResult
 from cocobench_agents.envs.seated import EnvError
+from cocobench_agents.rewards import DEFAULT_WEIGHTS, step_reward
 
-#: The default weights: progress and success count fully, the construct score half, a failed
-#: call or an invalid id 0.002.
-DEFAULT_WEIGHTS: dict[str, float] = {"progress": 1.0, "success": 1.0, "legality": 0.002,
-                                     "construct": 0.5}
+__all__ = ["DEFAULT_WEIGHTS", "reward_weights", "step_reward"]
 
 
 def reward_weights(reward: Mapping[str, float] | None) -> dict[str, float]:
@@ -45,13 +42,3 @@ def reward_weights(reward: Mapping[str, float] | None) -> dict[str, float]:
             raise EnvError(f"the weight of reward {name!r} must be a number, not {weight!r}")
         weights[name] = float(weight)
     return weights
-
-
-def step_reward(weights: Mapping[str, float], *, progress_gain: float, failed_calls: int,
-                result: EpisodeResult | None) -> float:
-    """One seat's reward for one step (`result`: the scored episode, on its last step)."""
-    reward = weights["progress"] * progress_gain - weights["legality"] * failed_calls
-    if result is not None:
-        reward += weights["success"] * result.task_success
-        reward += weights["construct"] * (result.construct_score or 0.0) * result.task_success
-    return reward

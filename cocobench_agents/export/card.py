@@ -6,6 +6,7 @@ and how to load it. Everything in it comes from the run folders, redacted as the
 from __future__ import annotations
 
 import json
+import re
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -25,6 +26,13 @@ LICENCE_NOTE = ("The CoCoBench task data these episodes were played on states no
                 "cocobench-agents, which wrote it, is Apache-2.0.")
 
 
+#: The folders of an absolute local path (POSIX, home or Windows; not a URL's path), which the
+#: card leaves out: they say where the data sat on the exporter's machine, nothing a reader
+#: can use, and may name its user.
+_LOCAL_FOLDERS = re.compile(r"(?<![\w:/.~-])(?:~|[A-Za-z]:)?[/\\](?:[^\s`'\"/\\]+[/\\])+"
+                            r"(?=[^\s`'\"/\\])")
+
+
 @dataclass(frozen=True)
 class CardFacts:
     """What an export did, for its card."""
@@ -42,7 +50,14 @@ def dataset_card(facts: CardFacts, redact: Redactor) -> str:
     parts = [_header(), _summary(facts), *(_run_section(run, facts) for run in facts.runs),
              _selection(facts), _columns(), _images(facts.stats), _loading(),
              f"## Licence\n\n{LICENCE_NOTE}\n"]
-    return redact("\n".join(parts))  # the whole card, as each row: nothing escapes it
+    # the whole card redacted as each row, and local paths shown by their last part only
+    return without_local_folders(redact("\n".join(parts)))
+
+
+def without_local_folders(text: str) -> str:
+    """`text` with each absolute local path cut to its last part (``/home/me/runs/r1`` →
+    ``r1``)."""
+    return _LOCAL_FOLDERS.sub("", text)
 
 
 def _header() -> str:
@@ -70,7 +85,8 @@ def _run_section(run: Run, facts: CardFacts) -> str:
     lines = [f"## Run `{run.name}`", "",
              f"- created: {record.get('created_at', 'not recorded')}, by cocobench-agents "
              f"{record.get('cocobench_agents', '?')}",
-             f"- command: `{record.get('command', 'not recorded')}`",
+             f"- command (local paths by their last part): "
+             f"`{record.get('command', 'not recorded')}`",
              f"- backend: {request.get('backend', 'not recorded')}; epochs: "
              f"{request.get('epochs', 1)}; step budget: {budget}",
              f"- models: {', '.join(map(str, plan.get('models') or [])) or 'not recorded'}",

@@ -40,6 +40,11 @@ COLUMNS: tuple[tuple[str, Kind, str], ...] = (
     ("message", "string", "the message the seat sent its teammates (D1; null otherwise)"),
     ("prompt_tokens", "int64", "tokens of the prompt, as the provider counted them"),
     ("completion_tokens", "int64", "tokens of the reply"),
+    ("reward", "float64", "the decision's reward as the environments pay its seat by default "
+                          "(docs/environments.md): the goal progress its landed call made, "
+                          "-0.002 for a failed call or a reply off the menu, and on the "
+                          "seat's last decision 1 for success + 0.5 × the construct score "
+                          "of a success"),
     (IMAGE_COLUMN, "frame", "the frame the run kept for the state the decision saw (null: a blind "
                        "condition, or a run that kept no frames)"),
     ("episode_success", "bool", "the episode reached its goal"),

@@ -20,6 +20,7 @@ from typing import Any
 
 from cocobench_agents.export.columns import IMAGE_COLUMN
 from cocobench_agents.models.secrets import redact_obj, secret_values
+from cocobench_agents.rewards import DEFAULT_WEIGHTS, end_reward
 from cocobench_agents.runfolder import RunFolder
 from cocobench_agents.runfolder.infra import is_infra_failure
 
@@ -66,11 +67,12 @@ def episode_rows(folder: RunFolder, run_name: str, line: Mapping[str, Any],
     outcome = _outcome(run_name, line)
     decisions = [d for d in document.get("planner_decisions") or []
                  if isinstance(d, Mapping) and d.get("prompt_hash")]
+    rewards = _rewards(items, decisions, line)
     for index, decision in enumerate(decisions):
         prompt = prompts.get(str(decision["prompt_hash"]))
         stats.without_prompt += prompt is None
         row = {**outcome, **_decision_columns(decision, index, prompt, landed),
-               IMAGE_COLUMN: frames.at(decision.get("step_index"))}
+               "reward": rewards[index], IMAGE_COLUMN: frames.at(decision.get("step_index"))}
         stats.with_image += row[IMAGE_COLUMN] is not None
         stats.rows += 1
         yield redact(row)  # frame bytes are not text: redaction leaves them as they are
@@ -111,6 +113,43 @@ def _decision_columns(decision: Mapping[str, Any], index: int, prompt: str | Non
         "prompt_tokens": _integer(decision.get("prompt_tokens")),
         "completion_tokens": _integer(decision.get("completion_tokens")),
     }
+
+
+def _rewards(items: Sequence[Mapping[str, Any]], decisions: Sequence[Mapping[str, Any]],
+             line: Mapping[str, Any]) -> list[float]:
+    """Each decision's reward as the environments pay a seat under their default weights
+    (`cocobench_agents.rewards`): the goal progress its landed call made, less the cost of a
+    failed call or of a reply off the menu, and on each seat's last decision what the
+    episode's end pays (success, the construct score of a success)."""
+    landed: dict[object, tuple[float, bool]] = {}  # by decision: (progress made, failed)
+    before = 0.0
+    for item in items:
+        now = _progress(item)
+        decision, result = item.get("policy_decision"), item.get("skill_result")
+        if isinstance(decision, Mapping) and isinstance(result, Mapping):
+            landed[_identity(decision)] = (now - before if now is not None else 0.0,
+                                           not result.get("success"))
+        before = before if now is None else now
+    seats = [str(d.get("agent") or CENTRALIZED_SEAT) for d in decisions]
+    last = {seat: index for index, seat in enumerate(seats)}
+    end = end_reward(DEFAULT_WEIGHTS, bool(_boolean(line.get("task_success"))),
+                     _number(line.get("construct_score")))
+    out = []
+    for index, decision in enumerate(decisions):
+        gain, failed = landed.get(_identity(decision), (0.0, False))
+        costs = failed + (decision.get("status") in ILLEGAL_STATUSES)
+        reward = DEFAULT_WEIGHTS["progress"] * gain - DEFAULT_WEIGHTS["legality"] * costs
+        out.append(reward + (end if last[seats[index]] == index else 0.0))
+    return out
+
+
+def _progress(item: Mapping[str, Any]) -> float | None:
+    """The fraction of goal checks passing after an item (None: no checks recorded)."""
+    evaluation = item.get("eval")
+    checks = evaluation.get("checks") if isinstance(evaluation, Mapping) else None
+    if not isinstance(checks, list) or not checks:
+        return None
+    return sum(bool(isinstance(c, Mapping) and c.get("passed")) for c in checks) / len(checks)
 
 
 def _legality(status: Any) -> bool | None:

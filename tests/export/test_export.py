@@ -16,6 +16,7 @@ from PIL import Image
 from cocobench_agents.export import COLUMNS
 from tests.export.conftest import SOLVED
 from tests.export.helpers import DATA, episode_of, export, load, model_decisions, result_lines
+from tests.paths import SHARED_TASKS
 
 pytestmark = pytest.mark.needs_export
 
@@ -230,3 +231,40 @@ def test_a_leader_and_its_workers_are_rows_of_their_own(capsys, tmp_path):
         expected = [prompt for _, prompt in model_decisions(run, line)]
         got = rows.filter(lambda r, arm=line["arm"]: r["arm"] == arm)
         assert [m[0]["content"] for m in got["messages"]] == expected
+
+
+def test_the_card_names_no_local_folder(capsys, played_run, tmp_path):
+    """The runs were made with absolute paths (--task, --out): the card shows their last
+    part only, not where they sat on this machine."""
+    code, _, err = export(capsys, played_run, "--out", tmp_path / "ds")
+    assert code == 0, err
+    card = (tmp_path / "ds" / "README.md").read_text()
+    assert "cocobench run --out played" in card and "A_D1__FloorPlan1__seed0.json" in card
+    for folder in (played_run.parent, SHARED_TASKS, Path.home()):
+        assert str(folder) not in card
+
+
+def test_a_decisions_reward_is_what_the_environment_pays(capsys, solved_run, played_run,
+                                                         tmp_path):
+    """The ``reward`` column: the solved episode's rewards are the progress each call made
+    (summing to the goal's), success and half its construct score on its last decision; a
+    failed call or an off-menu reply of the played runs costs 0.002."""
+    from cocobench_agents.rewards import DEFAULT_WEIGHTS
+
+    code, _, err = export(capsys, solved_run, played_run, "--out", tmp_path / "ds")
+    assert code == 0, err
+    rows = load(tmp_path / "ds", tmp_path / "cache")
+    solved = sorted((r for r in rows if r["run"] == "scripted"),
+                    key=lambda r: r["decision_index"])
+    [line] = result_lines(solved_run)
+    items = json.loads((solved_run / line["trajectory"]).read_text())["trajectory"]
+    checks = [i["eval"]["checks"] for i in items if i.get("eval")]
+    start = sum(c["passed"] for c in checks[0]) / len(checks[0])
+    end = 1.0 + 0.5 * line["construct_score"]
+    assert line["task_success"] and all(r["step_success"] is not False for r in solved)
+    assert sum(r["reward"] for r in solved) == pytest.approx(1.0 - start + end)
+    assert solved[-1]["reward"] >= end
+    costly = rows.filter(lambda r: r["run"] == "played" and not r["episode_success"] and (
+        r["step_success"] is False or r["legal"] is False))
+    assert len(costly) > 0
+    assert set(costly["reward"]) == {-DEFAULT_WEIGHTS["legality"]}
