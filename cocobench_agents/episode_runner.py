@@ -10,7 +10,6 @@ from typing import Any, Protocol
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.metrics import EpisodeResult
-from benchmark_adapter.oracles import oracle_plan
 from benchmark_adapter.sim.protocol import Controller
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.tasks.checks import MAX_STEP_BUDGET
@@ -123,23 +122,45 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
                       ) -> tuple[dict[str, Any], EpisodeResult]:
     """Run one episode to its end; write its trajectory when a path is given. `on_step` is
     called with each landed step's trajectory item. A planner node that raises ends the
-    episode with `PlannerNodeError`, which names the node, file, line and last frames and
-    carries the trajectory up to there (written to the path too)."""
-    planner = planner_spec(spec.planner)
-    episode = Episode(spec.config, controller)
-    tools = EpisodeTools(episode, load_prompt_suite(spec.prompt_suite, planner.templates),
-                         obs_mode=spec.obs_mode, stable_ids=spec.stable_ids)
+    episode with `PlannerNodeError` (`play_episode`)."""
+    tools = episode_tools(spec, Episode(spec.config, controller))
     tools.on_step = on_step
-    context = PlannerContext(
-        tools=tools, clients=make_clients(spec, pool), budget=spec.budget,
-        sample_index=spec.sample_index,
-        retry_policy=planner.retry_policy or run_retry_policy(pool),
-        oracle_plan=None if planner.uses_models else oracle_plan(spec.config),
-    )
-    tools.start()
-    steps = spec.budget
     try:
-        await _invoke(spec, context, steps)
+        return await play_episode(spec, planner_context(spec, tools, make_clients(spec, pool),
+                                                        pool), trajectory_path)
+    finally:
+        pool.release(spec.episode)
+
+
+def episode_tools(spec: EpisodeSpec, episode: Episode) -> EpisodeTools:
+    """The harness's tools over `episode`, with the prompts and observation mode of `spec`."""
+    suite = load_prompt_suite(spec.prompt_suite, planner_spec(spec.planner).templates)
+    return EpisodeTools(episode, suite, obs_mode=spec.obs_mode, stable_ids=spec.stable_ids)
+
+
+def planner_context(spec: EpisodeSpec, tools: EpisodeTools, clients: dict[str, ModelClient],
+                    pool: ClientFactory) -> PlannerContext:
+    """What the planner's nodes of an episode of `spec` use besides state: `tools`, the
+    seats' `clients`, the step budget and the retry policy (the planner's, else the run's)."""
+    return PlannerContext(tools=tools, clients=clients, budget=spec.budget,
+                          sample_index=spec.sample_index,
+                          retry_policy=planner_spec(spec.planner).retry_policy
+                          or run_retry_policy(pool))
+
+
+async def play_episode(spec: EpisodeSpec, context: PlannerContext,
+                       trajectory_path: str | Path | None = None
+                       ) -> tuple[dict[str, Any], EpisodeResult]:
+    """Play the planner's graph over `context` from the episode's start to its end; the
+    trajectory (written when a path is given) and the result. `cocobench run` and the
+    training environments (`cocobench_agents.envs`, whose learners' clients wait for their
+    actions) both play an episode here. A planner node that raises ends the episode with
+    `PlannerNodeError`, which names the node, file, line and last frames and carries the
+    trajectory up to there (written to the path too)."""
+    tools = context.tools
+    tools.start()
+    try:
+        await _invoke(spec, context)
     except HumanTurn:  # not a failure: a person's turn pauses the episode
         raise
     except Exception as exc:
@@ -148,8 +169,6 @@ async def run_episode(spec: EpisodeSpec, pool: ClientFactory, *,
             raise
         raise PlannerNodeError(failure, _stopped(tools, failure, spec, trajectory_path)
                                ) from exc
-    finally:
-        pool.release(spec.episode)
     return tools.finish(trajectory_path, **spec.identifiers())
 
 
@@ -170,13 +189,16 @@ def run_retry_policy(pool: ClientFactory) -> RetryPolicy:
     return RetryPolicy.from_settings(settings) if settings is not None else RetryPolicy()
 
 
-async def _invoke(spec: EpisodeSpec, context: PlannerContext, steps: int) -> None:
+def initial_state(spec: EpisodeSpec) -> dict[str, Any]:
+    """The planner graph's input: the team, the first round, nothing landed or posted."""
+    return {"agents": spec.config.agent_ids, "round_index": 1, "history": {}, "messages": [],
+            "terminal_reason": None}
+
+
+async def _invoke(spec: EpisodeSpec, context: PlannerContext) -> None:
     # A graph that never ends raises `EndlessLoop`, naming its last nodes.
     await run_to_end(
-        compiled_graph(spec.planner),
-        {"agents": spec.config.agent_ids, "round_index": 1, "history": {}, "messages": [],
-         "terminal_reason": None},
-        context=context,
+        compiled_graph(spec.planner), initial_state(spec), context=context,
         # A fresh thread per episode; each landed step takes a few supersteps.
-        config={"recursion_limit": 6 * steps + 50,
+        config={"recursion_limit": 6 * spec.budget + 50,
                 "configurable": {"thread_id": uuid.uuid4().hex}})

@@ -23,6 +23,7 @@ _EXPORTS = {
     "decide": ".decision", "ask": ".decision",
     "observe_next": ".nodes", "land_round": ".nodes", "continue_or_end": ".nodes",
     "fan_out": ".decentralized", "add_round": ".decentralized",
+    "round_branches": ".decentralized",
     "RetryPolicy": "cocobench_agents.models.retry",
 }
 __all__ = sorted(_EXPORTS)

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Generator
 from dataclasses import dataclass, field
 
-from benchmark_adapter.skills import SkillResult
 from cocobench_agents.graphs.model_calls import recording_clients
 from cocobench_agents.models.protocol import ModelClient
 from cocobench_agents.models.retry import RetryPolicy
@@ -22,8 +20,6 @@ class PlannerContext:
     sample_index: int = 0
     # How decide retries transient model failures; the run-level options by default.
     retry_policy: RetryPolicy = field(default_factory=RetryPolicy)
-    oracle_plan: Generator[str, SkillResult | None, None] | None = None  # the oracle's plan
-    last_result: SkillResult | None = None  # what the oracle's previous call did
 
     def __post_init__(self) -> None:
         # A call made with a client directly, not through `decide` or `ask`, is recorded too.

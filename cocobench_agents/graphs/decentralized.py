@@ -5,7 +5,7 @@ With `broadcast` (D1) each agent may add a `MSG:` line that its teammates read n
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from langgraph.graph import END, START, StateGraph
@@ -24,30 +24,27 @@ async def fan_out(state: PlannerState) -> list[Send] | str:
     """One `decide_agent` branch per agent, each with only what that agent may know."""
     if state.get("terminal_reason"):
         return END
+    return round_branches(state, state.get("messages") or [])
+
+
+def round_branches(state: PlannerState, boards: Sequence[dict[str, Any]] | Mapping[
+        str, Sequence[dict[str, Any]]]) -> list[Send]:
+    """The round's `decide_agent` branches: each agent's history and message board (one
+    board for all, or each agent's by name: a strategy may show each robot its own note)."""
     history = state.get("history") or {}
     return [Send("decide_agent", {"agent": a, "history": history.get(a, []),
-                                  "messages": state.get("messages") or [],
-                                  "directive": (state.get("directives") or {}).get(a)})
+                                  "messages": boards.get(a, []) if isinstance(boards, Mapping)
+                                  else boards})
             for a in state["agents"]]
-
-
-def board(messages: Sequence[dict[str, Any]], directive: str | None) -> list[dict[str, Any]]:
-    """What an agent's prompt shows on its message board: the posted messages and, under
-    leader–worker, the leader's instruction to it last."""
-    shown = list(messages)
-    if directive:
-        shown.append({"agent": "leader", "text": directive})
-    return shown
 
 
 def make_decide_agent(broadcast: bool):
     """The per-agent decision node (a branch of the round's fan-out)."""
     async def decide_agent(branch: dict[str, Any], runtime: Runtime[PlannerContext]
                            ) -> dict[str, Any]:
-        messages = board(branch["messages"], branch.get("directive"))
         decision = await decide(runtime.context, branch["agent"], policy=POLICY,
-                                history=branch["history"], messages=messages,
-                                broadcast=broadcast or bool(branch.get("directive")))
+                                history=branch["history"], messages=branch["messages"],
+                                broadcast=broadcast)
         return {"pending": [decision]}
     return decide_agent
 

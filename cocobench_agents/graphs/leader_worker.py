@@ -9,13 +9,15 @@ allocation by one model, with execution left to each agent, beats both C0 and D1
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from typing import Any
 
 from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
+from langgraph.types import Send
 
 from cocobench_agents.graphs.context import PlannerContext
-from cocobench_agents.graphs.decentralized import add_round, fan_out
+from cocobench_agents.graphs.decentralized import add_round, round_branches
 from cocobench_agents.graphs.decision import accepts_images
 from cocobench_agents.graphs.model_calls import unrecorded
 from cocobench_agents.graphs.nodes import continue_or_end
@@ -28,9 +30,35 @@ POLICY = "leader"
 DIRECTIVE = re.compile(r"^\s*(agent_\d+)\s*:\s*(.+?)\s*$", re.MULTILINE)
 
 
-async def lead(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
+class LeaderWorkerState(PlannerState, total=False):
+    """A leader–worker round's state: the shared state, and the leader's instructions."""
+
+    directives: dict[str, str]  # the leader's instruction to each robot, this round
+
+
+async def lead(state: LeaderWorkerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
     """Ask the leader model for this round's instruction to each robot."""
     return {"directives": await ask_leader(runtime.context, team_history(state))}
+
+
+async def instructed(state: LeaderWorkerState) -> list[Send] | str:
+    """The robots' decisions of the round (`round_branches`), each robot's board showing the
+    posted messages and, last, the leader's instruction to it."""
+    if state.get("terminal_reason"):
+        return END
+    messages = state.get("messages") or []
+    directives = state.get("directives") or {}
+    return round_branches(state, {a: board(messages, directives.get(a))
+                                  for a in state["agents"]})
+
+
+def board(messages: Sequence[dict[str, Any]], directive: str | None) -> list[dict[str, Any]]:
+    """What a robot's prompt shows on its message board: the posted messages and the
+    leader's instruction to it last."""
+    shown = list(messages)
+    if directive:
+        shown.append({"agent": "leader", "text": directive})
+    return shown
 
 
 async def ask_leader(ctx: PlannerContext, history: list[str]) -> dict[str, str]:
@@ -82,13 +110,13 @@ def team_lines(tools: EpisodeTools) -> list[str]:
 
 def build_leader_worker() -> StateGraph:
     """team_history → lead → decide_agent × N → land_round (land, observe) → (… | END)."""
-    graph = StateGraph(PlannerState, context_schema=PlannerContext)
+    graph = StateGraph(LeaderWorkerState, context_schema=PlannerContext)
     add_round(graph, broadcast=True)
     graph.add_node("team_history", remember_team)
     graph.add_node("lead", lead)
     graph.add_edge(START, "team_history")
     graph.add_edge("team_history", "lead")
-    graph.add_conditional_edges("lead", fan_out, ["decide_agent", END])
+    graph.add_conditional_edges("lead", instructed, ["decide_agent", END])
     graph.add_conditional_edges("land_round", continue_or_end("team_history"),
                                 ["team_history", END])
     return graph

@@ -2,31 +2,56 @@
 
 from __future__ import annotations
 
+import weakref
+from collections.abc import Generator
+from dataclasses import dataclass, field
 from typing import Any
 
 from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
 
+from benchmark_adapter.oracles import oracle_plan
+from benchmark_adapter.skills import SkillResult
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.nodes import continue_or_end, observe_next
 from cocobench_agents.graphs.state import PlannerState
-from cocobench_agents.tools import stop_decision
+from cocobench_agents.tools import EpisodeTools, stop_decision
 
 POLICY = "oracle"
+
+
+@dataclass
+class _Plan:
+    """Where an episode stands in its reference plan: a live generator, so it lives beside
+    the episode's tools rather than in the graph's (plain, serialisable) state."""
+
+    calls: Generator[str, SkillResult | None, None]
+    last_result: SkillResult | None = field(default=None)  # what the previous call did
+
+
+#: Each episode's plan, made on its first step and gone with its tools.
+_PLANS: weakref.WeakKeyDictionary[EpisodeTools, _Plan] = weakref.WeakKeyDictionary()
+
+
+def _plan_of(tools: EpisodeTools) -> _Plan:
+    plan = _PLANS.get(tools)
+    if plan is None:
+        plan = _PLANS[tools] = _Plan(oracle_plan(tools.config))
+    return plan
 
 
 async def follow_plan(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str, Any]:
     """Land the plan's next call (the plan gets the previous result back, as in the reference)."""
     ctx = runtime.context
-    plan = ctx.oracle_plan
+    plan = _plan_of(ctx.tools)
     try:
-        last = ctx.last_result
-        call = next(plan) if last is None else plan.send(last)
+        last = plan.last_result
+        call = next(plan.calls) if last is None else plan.calls.send(last)
     except StopIteration:
         ctx.tools.stop(stop_decision(policy=POLICY, model=None, agent=None,
                                      step_index=ctx.tools.step_index, status="done"))
         return {"terminal_reason": "done"}
-    ctx.last_result = ctx.tools.land(call)
+    plan.last_result = ctx.tools.land(call)
     return observe_next(ctx, state)
 
 

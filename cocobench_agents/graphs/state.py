@@ -31,7 +31,6 @@ class PlannerState(TypedDict, total=False):
     history: dict[str, list[str]]  # per agent (or TEAM): "call -> ok" / "call -> FAIL(…)"
     messages: list[dict[str, Any]]  # the broadcast board: {round, agent, text}
     pending: Annotated[list[dict[str, Any]], collect]  # this step's / round's decisions
-    directives: dict[str, str]  # leader–worker: the leader's instruction per agent
     terminal_reason: str | None
 
 
