@@ -109,6 +109,16 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
                 reasons[extra.marker] = extra.missing()
             if reasons[extra.marker] is not None:
                 item.add_marker(pytest.mark.skip(reason=reasons[extra.marker]))
+    slow_modules_first(items)
+
+
+def slow_modules_first(items: list[pytest.Item]) -> None:
+    """Put the modules holding a `slow` test that runs first, each in its order: the xdist
+    workers start the long tests early instead of ending the session on one of them (a
+    module is kept whole, so its module-scoped fixtures are still built once)."""
+    slow = {item.path for item in items
+            if item.get_closest_marker("slow") and not item.get_closest_marker("skip")}
+    items.sort(key=lambda item: item.path not in slow)
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
