@@ -307,10 +307,12 @@ def test_a_stranger_edits_any_field_and_verify_answers_with_a_verdict(demo_run: 
                                                                       data: Any) -> None:
     """Any leaf of a trajectory (its config, items, decisions) replaced by any JSON value:
     a verdict, never an exception; a verdict of `verified` only where the edit is one the
-    recording does not depend on (a decision's own usage report)."""
+    recording does not depend on (a decision's own usage report). (Without the reference's
+    configs, a config field no step reads, such as a resource's name, passed: the reference
+    is what pins the config.)"""
     import copy
 
-    from cocobench_agents.verify import verify_episode
+    from cocobench_agents.verify import reference_configs, verify_episode
 
     line = episode_line(demo_run)
     original = trajectory(demo_run, line)
@@ -321,7 +323,8 @@ def test_a_stranger_edits_any_field_and_verify_answers_with_a_verdict(demo_run: 
     for part in path[:-1]:
         holder = holder[part]
     holder[path[-1]] = value
-    verdict = verify_episode(document, line, prompts=prompts(demo_run, line))
+    verdict = verify_episode(document, line, prompts=prompts(demo_run, line),
+                             reference=reference_configs())
     assert verdict.status in ("verified", "mismatch")
     if verdict.status == "verified" and document != original:
         assert "policy_decision" in path or "planner_decisions" in path, (path, value)
