@@ -111,7 +111,10 @@ def main(argv: list[str] | None = None) -> None:
     _become_subreaper()
     import ray
 
-    context = ray.init(num_cpus=args.num_cpus, num_gpus=args.num_gpus, include_dashboard=False,
+    # address="local": a Ray of its own, never the one RAY_ADDRESS or /tmp/ray's record of
+    # the last cluster started on this machine names (a user's `ray start`, a test's cluster).
+    context = ray.init(address="local", num_cpus=args.num_cpus, num_gpus=args.num_gpus,
+                       include_dashboard=False,
                        log_to_driver=False,
                        logging_level=logging.ERROR)
     try:
