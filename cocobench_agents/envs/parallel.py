@@ -31,6 +31,7 @@ from cocobench_agents.envs.seated import (
 )
 from cocobench_agents.envs.source import instances, one_condition
 from cocobench_agents.envs.spaces import SeatSpaces
+from cocobench_agents.envs.turns import new_loop
 from cocobench_agents.episode_runner import DEFAULT_MODEL_KEY, EpisodeSpec
 from cocobench_agents.graphs import ORACLE, planner_spec
 from cocobench_agents.graphs.registry import AGENT_SEAT, LEADER_SEAT, TEAM_SEAT
@@ -107,8 +108,13 @@ class CoCoBenchParallelEnv(ParallelEnv):
         check_seed(seed)
         if seed is not None:
             self._rng = np.random.default_rng(seed)
-        self.episode = self._episode_for(self._pick(reset_options(options).get("task_id")))
-        self.episode.reset()
+        if self.episode is not None:  # its planner stopped, not left waiting on the loop
+            self.episode.abandon()
+        config = self._pick(reset_options(options).get("task_id"))
+        made = config.task_id not in self._episodes  # (a new episode starts at once)
+        self.episode = self._episode_for(config)
+        if not made:
+            self.episode.reset()
         self.agents = [s for s in self.episode.seats if s in self.learning]
         info = self._info()
         return self._observations(), {s: dict(info) for s in self.agents}
@@ -136,7 +142,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
         checks = episode.episode.items[-1]["eval"]["checks"]
         masks = np.zeros((len(self.possible_agents), self._max_menu + 2), np.float32)
         for row, seat in enumerate(self.possible_agents):
-            if seat in episode.seats and episode.acting(seat) and seat != LEADER_SEAT:
+            if seat in episode.seats and seat != LEADER_SEAT and _acts(episode, seat):
                 masks[row, 0] = 1.0
                 ids = [o.action_id for o in episode.tools.menu_options(
                     None if seat == TEAM_SEAT else seat)]
@@ -252,7 +258,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
 
     def _episode_for(self, config: TaskConfig) -> SeatedEpisode:
         if self.loop is None or self.loop.is_closed():
-            self.loop = asyncio.new_event_loop()
+            self.loop = new_loop()
             # Closed when the environment is collected or, at the latest, at interpreter
             # exit while the modules a close needs are still there (a `__del__` ran during
             # their teardown and printed "Exception ignored … EVENT_READ").
@@ -377,6 +383,14 @@ def _invalid(decisions: list[dict[str, Any]], seat: str) -> int:
     agent = None if seat == TEAM_SEAT else seat
     return sum(1 for d in decisions
                if d.get("status") == "invalid_action_id" and d.get("agent") == agent)
+
+
+def _acts(episode: SeatedEpisode, seat: str) -> bool:
+    """Whether `seat` decides in this phase: a learner the planner waits for; a partner
+    (which answers as soon as it is asked) while the robots' phase lasts."""
+    if seat in episode.partners:
+        return not episode.finished and episode.phase != "lead"
+    return episode.acting(seat)
 
 
 def _check_count(config: TaskConfig) -> int:

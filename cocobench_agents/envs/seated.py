@@ -1,14 +1,14 @@
-"""`SeatedEpisode`: one benchmark episode stepped by its seats' actions instead of a graph's
-model calls.
+"""`SeatedEpisode`: one benchmark episode whose seats act through `step` instead of a model.
 
-It drives the real `Episode` through the harness's `EpisodeTools`, turns each action into a
-decision record with the planners' own `reply_decision` (the action as the reply text a
-scripted model would send), and lands decisions with the planners' own landing rules
-(`graphs.centralized.land_decision`, `graphs.nodes.land_decisions`, the leader's
-`record_directives`), then scores the trajectory as `run_episode` does. So an episode played
-here scores exactly as the same replies do under `cocobench run --model scripted:FILE`.
-Seats without a learner are played by model clients through the planners' own `decide` /
-`ask_leader`. No Gymnasium or PettingZoo here: `parallel.py` and `seat_env.py` wrap it.
+It plays the planner's own graph, exactly as `cocobench run` plays it
+(`episode_runner.play_episode`): a learning seat's model client is a `SeatClient`, whose
+reply waits for the seat's action, so the episode pauses where the planner asks a learner
+and goes on once the learners answer (`PlannerTurns`). The step, round and led-round rules
+are the planner's, written once in its graph; the environment knows a planner only by what
+its spec declares (`PlannerSpec.loop`, `seats`). So any planner, built in or a plugin such as
+claim-board, is an environment, and an episode played here scores exactly as the same
+replies do under `cocobench run --model scripted:FILE`. Seats without a learner are played
+by model clients. No Gymnasium or PettingZoo here: `parallel.py` and `seat_env.py` wrap it.
 """
 
 from __future__ import annotations
@@ -26,52 +26,39 @@ from benchmark_adapter.episode import Episode
 from benchmark_adapter.metrics import EpisodeResult
 from cocobench_agents.conditions import condition_name
 from cocobench_agents.envs.oracle_partner import OracleClient, OraclePlan
+from cocobench_agents.envs.turns import (
+    NoSeatClient,
+    PartnerClient,
+    PlannerTurns,
+    SeatClient,
+    new_loop,
+)
 from cocobench_agents.episode_runner import (
     DEFAULT_MODEL_KEY,
     ClientFactory,
     EpisodeSpec,
+    episode_tools,
+    planner_context,
+    play_episode,
     run_retry_policy,
 )
-from cocobench_agents.graphs import (
-    ORACLE,
-    PlannerContext,
-    centralized,
-    decentralized,
-    planner_spec,
-)
-from cocobench_agents.graphs.centralized import build_centralized, land_decision
-from cocobench_agents.graphs.decentralized import board, build_decentralized
-from cocobench_agents.graphs.decision import decide, no_actions_decision, reply_decision
-from cocobench_agents.graphs.leader_worker import (
-    ask_leader,
-    build_leader_worker,
-    record_directives,
-    team_lines,
-)
-from cocobench_agents.graphs.nodes import land_decisions
+from cocobench_agents.graphs import ORACLE, planner_spec
 from cocobench_agents.graphs.registry import (
     AGENT_SEAT,
     LEADER_SEAT,
-    LED_ROUND,
-    STEP,
     TEAM_SEAT,
     PlannerSpec,
     Seat,
 )
-from cocobench_agents.graphs.state import TEAM, team_history
 from cocobench_agents.models import ModelPool
-from cocobench_agents.models.protocol import MenuOption, ModelReply
+from cocobench_agents.models.grammar import wants_message
+from cocobench_agents.models.protocol import MenuOption
 from cocobench_agents.models.settings import ModelSettings
-from cocobench_agents.prompts import load_prompt_suite
-from cocobench_agents.tools import EpisodeTools
+from cocobench_agents.prompts import history_line
 
 #: The action that chooses no menu entry: ``ACTION: DONE`` (also what a waiting seat sends).
 #: Menu ids start at 0, so DONE is -1.
 DONE = -1
-#: The graphs whose rules `SeatedEpisode` applies: a planner built by one of them is stepped.
-STEPPED_GRAPHS = frozenset(f"{build.__module__}:{build.__name__}" for build in (
-    build_centralized, build_decentralized, build_leader_worker))
-LEAD, WORK = "lead", "work"  # the two phases of a leader–worker round
 #: What an action off the menu does: be scored as an invalid id (the default: every element
 #: of an action space is then a valid action, as RL libraries' exploration and Gymnasium's and
 #: PettingZoo's checkers assume), or raise.
@@ -115,14 +102,12 @@ class SeatView:
     sends_message: bool = False  # whether a message is read from it now
 
 
-def check_stepped(planner: PlannerSpec) -> None:
-    """Raise `EnvError` unless `planner` is built by a graph whose rules the environment
-    applies (C0's, D0/D1's, leader–worker's)."""
-    target = getattr(planner.build, "target", "").partition("(")[0]
-    if target not in STEPPED_GRAPHS or planner.calls_per_seat != 1:
-        raise EnvError(f"the environment steps the planners of the built-in C0, D0/D1 and "
-                       f"leader-worker graphs (whose rules it applies), not {planner.name!r} "
-                       f"({planner.code})")
+def check_seated(planner: PlannerSpec) -> None:
+    """Raise `EnvError` unless `planner` has a seat to play: a planner that calls no model
+    (the oracle) asks nobody."""
+    if not planner.uses_models:
+        raise EnvError(f"planner {planner.name!r} ({planner.code}) calls no model: it has no "
+                       "seat to play")
 
 
 def check_off_menu(off_menu: str) -> None:
@@ -176,19 +161,17 @@ def seat_name(seat: Seat) -> str:
 
 
 class SeatedEpisode:
-    """One episode of `spec` (a built-in C0/D0/D1/leader-worker planner) whose seats act
-    through `step`. `partners` maps seat names to the model specs that play those seats (any
-    the harness runs: ``greedy``, ``random``, ``scripted:FILE``, ``replay:RUN``, a LiteLLM
-    model; or ``oracle``: the reference plan, `oracle_partner.py`), their clients made by
-    `pool` afresh for each episode (default: a pool with the ``COCOBENCH_RUN_*`` variables'
-    settings, `partner_settings`); `text=False` skips
-    rendering prompts (observations then carry no prompt text, and the trajectory's decisions
-    name the empty prompt). An action off the seat's menu is scored as a model's reply naming
-    an id not on its menu is (an ``invalid_action_id`` decision), and a message where none is
-    read now is not read; with ``off_menu="error"`` either is an `EnvError`.
-    Partners' model calls run on `loop` when given (its owner closes it: the parallel
-    environment shares one among its episodes), else on a loop the episode makes and
-    `close` closes."""
+    """One episode of `spec` (any planner that calls models) whose learning seats act through
+    `step`. `partners` maps seat names to the model specs that play those seats (any the
+    harness runs: ``greedy``, ``random``, ``scripted:FILE``, ``replay:RUN``, a LiteLLM model;
+    or ``oracle``: the reference plan, `oracle_partner.py`), their clients made by `pool`
+    afresh for each episode (default: a pool with the ``COCOBENCH_RUN_*`` variables'
+    settings, `partner_settings`); `text=False` leaves the prompt text out of the seats'
+    views. An action off the seat's menu is scored as a model's reply naming an id not on its
+    menu is (an ``invalid_action_id`` decision), and a message where none is read now is not
+    read; with ``off_menu="error"`` either is an `EnvError`. The episode runs on `loop` when
+    given (its owner closes it: the parallel environment shares one among its episodes),
+    else on a loop the episode makes and `close` closes."""
 
     def __init__(self, spec: EpisodeSpec, *, partners: Mapping[str, str] | None = None,
                  pool: ClientFactory | None = None, text: bool = True,
@@ -198,10 +181,7 @@ class SeatedEpisode:
         self.off_menu = off_menu
         self.text = text
         self.planner = planner_spec(spec.planner)
-        check_stepped(self.planner)
-        self.loop = self.planner.loop_kind
-        self.broadcast = self.planner.broadcast
-        self.policy = centralized.POLICY if self.loop == STEP else decentralized.POLICY
+        check_seated(self.planner)
         self.seats = [seat_name(s) for s in self.planner.seats(spec.config.agent_ids)]
         self.partners = dict(partners or {})
         unknown = sorted(set(self.partners) - set(self.seats))
@@ -213,37 +193,48 @@ class SeatedEpisode:
         self.model = spec.model_for(None)  # the name the learners' decisions record
         self.spec = with_partner_models(spec, self.partners)
         self.condition = condition_name(self.planner.code, spec.obs_mode)
-        self._suite = load_prompt_suite(spec.prompt_suite)
         self._episode = Episode(spec.config, spec.controller())
         self._loop = loop
-        self._owns_loop = loop is None  # then made on the first partner call
+        self._owns_loop = loop is None  # then made on the first reset
+        self._played: asyncio.Task | None = None
         self.reset()
 
     # -- lifecycle ---------------------------------------------------------------------
 
     def reset(self) -> None:
-        """Start the episode over: the scene reloaded, nothing recorded."""
-        self.tools = EpisodeTools(self._episode, self._suite, obs_mode=self.spec.obs_mode,
-                                  stable_ids=self.spec.stable_ids)
+        """Start the episode over: the scene reloaded, nothing recorded; the planner plays
+        up to its first question to a learner."""
+        self.abandon()
+        self.tools = episode_tools(self.spec, self._episode)
         self.pool.release(self.spec.episode)  # fresh clients: they keep state per episode
-        plan = OraclePlan(self._episode) if ORACLE in self.partners.values() else None
-        clients = {_client_key(s): OracleClient(plan) if model == ORACLE
-                   else self.pool.client(model, episode=self.spec.episode,
-                                         agent=_client_agent(s))
-                   for s, model in self.partners.items()}
-        self.ctx = PlannerContext(tools=self.tools, clients=clients, budget=self.spec.budget,
-                                  sample_index=self.spec.sample_index,
-                                  retry_policy=(self.planner.retry_policy
-                                                or run_retry_policy(self.pool)))
-        self.state: dict[str, Any] = {"agents": self.spec.config.agent_ids, "round_index": 1,
-                                      "history": {}, "messages": [], "directives": {},
-                                      "terminal_reason": None}
-        self.phase = LEAD if self.loop == LED_ROUND else WORK
+        self.turns = PlannerTurns()
+        context = planner_context(self.spec, self.tools, self._clients(), self.pool)
         self.result: EpisodeResult | None = None
         self.document: dict[str, Any] | None = None
-        self.tools.start()
+        self._played = self._event_loop().create_task(play_episode(self.spec, context))
         self._views: dict[str, SeatView] = {}
         self._settle()
+
+    def _clients(self) -> dict[str, Any]:
+        """Each seat's client, under the key the planner asks it by ("*": the team's, the
+        leader's): a learner's waits for its action; a partner's is a model (or the
+        reference plan)."""
+        plan = OraclePlan(self._episode) if ORACLE in self.partners.values() else None
+        retry = self.planner.retry_policy or run_retry_policy(self.pool)
+        clients: dict[str, Any] = {
+            DEFAULT_MODEL_KEY: NoSeatClient(self.model, self.planner.name, self.seats)}
+        for seat in self.seats:
+            model = self.partners.get(seat)
+            if model is None:
+                client: Any = SeatClient(seat, self.model, self.turns)
+            elif model == ORACLE:
+                client = PartnerClient(OracleClient(plan), self.turns, retry)
+            else:
+                client = PartnerClient(self.pool.client(model, episode=self.spec.episode,
+                                                        agent=_client_agent(seat)),
+                                       self.turns, retry)
+            clients[_client_key(seat)] = client
+        return clients
 
     @property
     def episode(self) -> Episode:
@@ -255,84 +246,87 @@ class SeatedEpisode:
 
     @property
     def terminal_reason(self) -> str | None:
-        return self.state.get("terminal_reason")
+        return self.result.terminal_reason if self.result is not None else None
+
+    @property
+    def phase(self) -> str:
+        """Who acts now: "lead" while the leader does, else "work"."""
+        return "lead" if LEADER_SEAT in self.turns.asks else "work"
 
     def close(self) -> None:
-        """Close the event loop partners' model calls run on, if the episode made it (the
-        pool's connections for it closed, its pending tasks cancelled)."""
+        """Abandon the episode, and close the event loop it runs on if the episode made it
+        (the pool's connections for it closed, its pending tasks cancelled)."""
+        self.abandon()
         if self._owns_loop and self._loop is not None:
             close_loop(self._loop, self.pool)
             self._loop = None
 
+    def abandon(self) -> None:
+        """Stop the planner of an episode not played to its end."""
+        played, self._played = self._played, None
+        if played is None or played.done() or self._loop is None or self._loop.is_closed():
+            return
+        self.turns.cancel()
+        played.cancel()
+        self._loop.run_until_complete(asyncio.gather(played, return_exceptions=True))
+
     # -- observing ---------------------------------------------------------------------
 
     def view(self, seat: str) -> SeatView:
-        """What `seat` knows now (rendered once per decision)."""
+        """What `seat` knows now (made once per decision)."""
         view = self._views.get(seat)
         if view is None:
-            view = self._views[seat] = self._render(seat)
+            view = self._views[seat] = self._make_view(seat)
         return view
 
     def acting(self, seat: str) -> bool:
-        """Whether the current phase reads `seat`'s action."""
-        if self.finished:
-            return False
-        if self.loop == LED_ROUND:
-            return (seat == LEADER_SEAT) == (self.phase == LEAD)
-        return True
+        """Whether the planner waits for `seat`'s action now."""
+        return not self.finished and seat in self.turns.asks
 
-    def _render(self, seat: str) -> SeatView:
-        if not self.acting(seat):
+    def _make_view(self, seat: str) -> SeatView:
+        ask = self.turns.asks.get(seat) if not self.finished else None
+        if ask is None:
             return SeatView(seat, False, "", ())
-        tools = self.tools
-        prompt = self.prompt_text(seat) if self.text else ""
-        if seat == LEADER_SEAT:
+        request = ask.request
+        prompt = request.prompt if self.text else ""
+        if not request.menu:  # a free-text ask (the leader's): the move's message answers
             return SeatView(seat, True, prompt, (), sends_message=True)
-        agent = None if seat == TEAM_SEAT else seat
-        return SeatView(seat, True, prompt, tools.menu_options(agent), tools.menu_lines(agent),
-                        sends_message=self._broadcasts(agent))
+        return SeatView(seat, True, prompt, request.menu, self.tools.menu_lines(request.agent),
+                        sends_message=wants_message(request.prompt))
 
     def prompt_text(self, seat: str) -> str:
-        """The prompt the harness would send `seat` now (rendered even when `text` is off:
-        `render`'s text view)."""
-        if not self.acting(seat):
-            return ""
-        if seat == LEADER_SEAT:
-            return self.tools.leader_prompt(team_lines(self.tools), False)[0]
-        agent = None if seat == TEAM_SEAT else seat
-        return self.tools.prompt(agent, self._history(agent), self._board(agent),
-                                 self._broadcasts(agent), with_images=False)[0]
+        """The prompt the planner sent `seat` now (also when `text` is off: `render`'s text
+        view); "" for a waiting seat."""
+        ask = self.turns.asks.get(seat) if not self.finished else None
+        return ask.request.prompt if ask is not None else ""
 
-    def _history(self, agent: str | None) -> list[str]:
-        if agent is None:
-            return team_history(self.state)
-        return (self.state.get("history") or {}).get(agent, [])
-
-    def _board(self, agent: str | None) -> list[dict[str, Any]]:
-        if agent is None:
-            return []
-        return board(self.state.get("messages") or [],
-                     (self.state.get("directives") or {}).get(agent))
-
-    def _broadcasts(self, agent: str | None) -> bool:
-        directive = (self.state.get("directives") or {}).get(agent) if agent else None
-        return agent is not None and (self.broadcast or bool(directive))
+    def history(self, seat: str) -> list[str]:
+        """The landed calls `seat` answers for, oldest first ("call -> ok" / "call ->
+        FAIL(…)"); the team's seat and the leader see every robot's."""
+        every = seat in (TEAM_SEAT, LEADER_SEAT)
+        return [history_line(i["label"], i["skill_result"]["success"],
+                             i["skill_result"]["errorMessage"])
+                for i in self._episode.items if "skill_result" in i
+                and (every or i["policy_decision"].get("agent") == seat)]
 
     def frame(self, seat: str) -> bytes:
-        """The PNG the seat's model would be shown (the team's merged view for C0 and the
-        leader)."""
+        """The PNG the seat's model would be shown (the team's merged view for the team's
+        seat and the leader)."""
         agent = None if seat in (TEAM_SEAT, LEADER_SEAT) else seat
         return self.tools.images(agent)[0]
 
     # -- acting ------------------------------------------------------------------------
 
     def step(self, actions: Mapping[str, SeatAction]) -> None:
-        """Play one phase: the learners' `actions` (one per acting learner), the partners'
-        model calls, then the planner's landing rule; then play on through phases in which
-        no learner acts."""
+        """Answer the planner's pending asks with the learners' `actions` (one per acting
+        learner); the planner plays on (partners' model calls, its landing rules) until it
+        asks a learner again or the episode ends."""
         if self.finished:
             raise EnvError("the episode has ended: call reset() before stepping again")
-        self._play(self._checked(actions))
+        for seat, move in self._checked(actions).items():
+            if self.acting(seat):  # a free-text ask (the leader's) is answered by the message
+                self.turns.answer(seat, move.reply_text() if self.view(seat).menu
+                                  else move.message)
         self._settle()
 
     def _checked(self, actions: Mapping[str, SeatAction]) -> dict[str, SeatAction]:
@@ -359,8 +353,8 @@ class SeatedEpisode:
                 why = "waits this phase" if not view.acting else "sends no messages"
                 raise EnvError(f"seat {seat!r} {why}: its action carries no message "
                                f"(got {move.message[:40]!r})")
-        if move.action == DONE or self.off_menu == "score" or seat == LEADER_SEAT:
-            return move  # (the leader's move is its message; its id is never read)
+        if move.action == DONE or self.off_menu == "score" or (view.acting and not view.menu):
+            return move  # (a free-text ask's move is its message; its id is never read)
         if not view.acting:
             raise EnvError(f"seat {seat!r} waits this phase: its action must be DONE (-1), "
                            f"not {move.action}")
@@ -371,69 +365,27 @@ class SeatedEpisode:
                            " or DONE (-1)")
         return move
 
-    def _play(self, actions: Mapping[str, SeatAction]) -> None:
-        if self.loop == LED_ROUND and self.phase == LEAD:
-            self._lead(actions.get(LEADER_SEAT))
-            self.phase = WORK
-            return
-        if self.loop == STEP:
-            decision = self._decision(TEAM_SEAT, actions.get(TEAM_SEAT))
-            self._apply(land_decision(self.ctx, self.state, decision))
-        else:
-            agents = self.spec.config.agent_ids
-            self._apply(land_decisions(self.ctx, self.state,
-                                       [self._decision(a, actions.get(a)) for a in agents]))
-        if self.loop == LED_ROUND:
-            self.phase = LEAD
-        self._views = {}
-
-    def _lead(self, move: SeatAction | None) -> None:
-        history = team_lines(self.tools)
-        self.state["history"] = {**self.state["history"], TEAM: history}
-        if move is None:  # a partner leads
-            directives = self._run(ask_leader(self.ctx, history))
-        else:
-            prompt = self.view(LEADER_SEAT).prompt
-            directives = record_directives(self.tools, self.model, prompt,
-                                           reply=ModelReply(text=move.message))
-        self.state["directives"] = directives
-        self._views = {}
-
-    def _decision(self, seat: str, move: SeatAction | None) -> dict[str, Any]:
-        agent = None if seat == TEAM_SEAT else seat
-        if move is None:  # a partner decides, as the planner's node asks it
-            return self._run(decide(self.ctx, agent, policy=self.policy,
-                                    history=self._history(agent), messages=self._board(agent),
-                                    broadcast=self._broadcasts(agent)))
-        view = self.view(seat)
-        if not view.menu:  # `decide` makes no call on an empty menu
-            return no_actions_decision(self.tools, agent, policy=self.policy, model=self.model)
-        return reply_decision(self.tools, agent, view.menu, view.prompt,
-                              ModelReply(text=move.reply_text()), policy=self.policy,
-                              model=self.model, broadcast=view.sends_message)
-
-    def _apply(self, update: dict[str, Any]) -> None:
-        """Merge a node's state update as LangGraph's channels would (`pending` is cleared
-        by its reducer; the rest replace)."""
-        self.state.update({k: v for k, v in update.items() if k != "pending"})
-
     def _settle(self) -> None:
-        """Play the phases no learner acts in; score the episode once it has ended."""
-        while not self.terminal_reason and not any(self.acting(s) for s in self.learners):
-            self._play({})
-        if self.terminal_reason and self.result is None:
-            self.document, result = self.tools.finish(None, **self.spec.identifiers())
+        """Let the planner play until it waits for a learner; score the episode once it
+        has ended (a planner node's error is raised here, as `cocobench run` raises it)."""
+        self._views = {}
+        played = self._played
+        try:
+            self._event_loop().run_until_complete(self.turns.until_waiting(played))
+        except RuntimeError as exc:
+            raise EnvError(f"planner {self.planner.name}: {exc}") from None
+        if played.done():
+            self.document, result = played.result()
             # As the harness's result line names it (harness.batch).
             self.result = result.model_copy(update={"condition": self.condition})
-        self._views = {}
 
-    def _run(self, coroutine: Any) -> Any:
+    def _event_loop(self) -> asyncio.AbstractEventLoop:
         if self._loop is None:
-            self._loop = asyncio.new_event_loop()
+            self._loop = new_loop()
             # Closed when the episode is collected or at exit, while the modules a close
             # needs are still there (not in a `__del__` during their teardown).
             weakref.finalize(self, close_quietly, self._loop)
-        return self._loop.run_until_complete(coroutine)
+        return self._loop
 
     # -- what the rewards read -----------------------------------------------------------
 
@@ -448,9 +400,14 @@ class SeatedEpisode:
 
 
 def close_quietly(loop: asyncio.AbstractEventLoop) -> None:
-    """Close `loop` unless it is closed or running (no model calls: a collected
-    environment's loop, or one still open at exit)."""
-    if not loop.is_closed() and not loop.is_running():
+    """Close `loop` unless it is closed or running, its episodes' planners stopped first (a
+    collected environment's loop, or one still open at exit: a planner left waiting for a
+    learner would otherwise be torn down outside any loop)."""
+    if loop.is_closed() or loop.is_running():
+        return
+    try:
+        _cancel_pending(loop)
+    finally:
         loop.close()
 
 
@@ -463,11 +420,16 @@ def close_loop(loop: asyncio.AbstractEventLoop, pool: object | None = None) -> N
         aclose = getattr(pool, "aclose", None)
         if aclose is not None:
             loop.run_until_complete(aclose())
-        pending = asyncio.all_tasks(loop)
-        for task in pending:
-            task.cancel()
-        if pending:
-            loop.run_until_complete(asyncio.gather(*pending, return_exceptions=True))
+        _cancel_pending(loop)
         loop.run_until_complete(loop.shutdown_asyncgens())
     finally:
         loop.close()
+
+
+def _cancel_pending(loop: asyncio.AbstractEventLoop) -> None:
+    """Cancel `loop`'s pending tasks and wait for them to end."""
+    pending = asyncio.all_tasks(loop)
+    for task in pending:
+        task.cancel()
+    if pending:
+        loop.run_until_complete(asyncio.gather(*pending, return_exceptions=True))

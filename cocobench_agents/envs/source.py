@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from benchmark_adapter.tasks import TaskConfig, load_tasks
 from cocobench_agents.engine.resolve import find_task
-from cocobench_agents.envs.seated import EnvError, check_stepped
+from cocobench_agents.envs.seated import EnvError, check_seated
 from cocobench_agents.graphs import planner_spec
 from cocobench_agents.harness import Condition, parse_conditions
 
@@ -22,12 +22,12 @@ def instances(source: str, task_id: str | None) -> list[TaskConfig]:
 
 
 def one_condition(condition: str) -> Condition:
-    """The condition `condition` names, which must be one of a planner the environment
-    steps (an unknown name is the run's own error)."""
+    """The condition `condition` names, which must be one of a planner with seats to play
+    (an unknown name is the run's own error)."""
     conditions = parse_conditions(condition)
     if len(conditions) != 1:
         raise EnvError(f"condition {condition!r} names {len(conditions)} conditions: an "
                        "environment takes one, such as D1_blind")
     chosen = conditions[0]
-    check_stepped(planner_spec(chosen.planner))
+    check_seated(planner_spec(chosen.planner))
     return chosen

@@ -121,7 +121,7 @@ class CoCoBenchTRLEnv:
     def _history(self) -> list[str]:
         """The seat's landed calls, oldest first ("call -> ok" / "call -> FAIL(…)"); the
         team's seat sees every robot's."""
-        return self._episode._history(None if self.seat == TEAM_SEAT else self.seat)
+        return self._episode.history(self.seat)
 
     def _changes(self, off_menu_ids: set[int]) -> str:
         """What the seat's prompt says now that it did not at the last call."""

@@ -11,13 +11,15 @@ import pytest
 from benchmark_adapter.tasks import load_tasks
 from benchmark_adapter.trajectory import PROMPTS_FIELD
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
+from cocobench_agents.graphs import PLANNERS as BUILT_IN
 from cocobench_agents.models import ModelPool
 from tests.envs.play import done_after, illegal_first, oracle_policy, play, random_policy
 from tests.paths import SHARED_TASKS
 
 pytestmark = pytest.mark.needs_env
 
-PLANNERS = ("centralized", "decentralized", "decentralized-broadcast", "leader-worker")
+#: Every built-in planner that calls a model, and claim-board (an installed plugin).
+PLANNERS = (*(name for name, spec in BUILT_IN.items() if spec.uses_models), "claim-board")
 #: Times differ between any two runs; everything else must not.
 TIMES = {"elapsed_s"}
 

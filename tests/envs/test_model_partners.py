@@ -77,8 +77,10 @@ def test_a_partner_server_that_fails_is_counted_where_the_learner_looks(server):
                                            "backoff_s": 0})
     observation, _ = environment.reset(seed=0)
     first = int(np.flatnonzero(observation["action_mask"])[1]) - 1  # [0] is DONE
-    *_, info = environment.step(first)  # agent_2 acts; agent_1's call fails (and its retry)
-    assert server.count == 2 and info["unanswered_calls"] == 1
+    # agent_1's call (and its retry) failed as the round began, as in `cocobench run`
+    assert server.count == 2
+    *_, info = environment.step(first)  # agent_2 acts: the round lands; the next one begins
+    assert server.count == 4 and info["unanswered_calls"] == 1
     *_, last = environment.step(-1)  # agent_2 is done: the episode ends
     environment.close()
     assert server.count == 4
