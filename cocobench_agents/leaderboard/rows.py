@@ -12,7 +12,7 @@ import numpy as np
 from benchmark_adapter.vocabulary import DIMENSIONS
 from cocobench_agents.models import is_builtin
 from cocobench_agents.reports.stats import Estimate, cluster_totals, mean_ci, pass_hat_k
-from cocobench_agents.runfolder import EpisodeKey
+from cocobench_agents.runfolder import EpisodeKey, result_key
 from cocobench_agents.verify import Verdict
 
 VERIFIED, MISMATCH, UNVERIFIABLE, REFUSED = "verified", "mismatch", "unverifiable", "refused"
@@ -59,7 +59,7 @@ def rows_of(source: str, pages: str, lines: Sequence[Mapping[str, Any]],
                           []).append(line)
     rows = []
     for (model, condition, arm), group in groups.items():
-        states = [verdicts.get(_key(line)) for line in group]
+        states = [verdicts.get(result_key(line)) for line in group]
         badge, why = _badge(states, problems)
         rows.append(Row(
             source=source, pages=pages, model=model, condition=condition,
@@ -81,11 +81,6 @@ def rank(rows: list[Row]) -> None:
         group.sort(key=lambda r: (-(r.sr.value or 0.0), -(r.cs.value or 0.0)))
         for number, row in enumerate(group, start=1):
             row.rank = number
-
-
-def _key(line: Mapping[str, Any]) -> EpisodeKey:
-    return EpisodeKey(line["model"], line["condition"], line["task_id"],
-                      int(line.get("epoch") or 0), line.get("arm") or "")
 
 
 def _badge(states: Sequence[Verdict | None], problems: Sequence[str]) -> tuple[str, str]:
