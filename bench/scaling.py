@@ -17,6 +17,7 @@ workers (`makespan`), which is Amdahl's law with the tail counted rather than gu
 
 Usage: python bench/scaling.py [--suite cocobench-240]… [--repeats 3] [--workers 1 2 4]…
        python bench/scaling.py --profile [--suite cocobench-full] [--workers 1 2] [--cores 16]
+                               [--limit N]
 """
 
 from __future__ import annotations
@@ -47,10 +48,12 @@ def worker_counts(cores: int) -> list[int]:
     return [*counts, cores]
 
 
-def run_arguments(suite: str, workers: int, out: Path) -> list[str]:
-    """`cocobench run`'s arguments for a run of `suite` with `workers` processes."""
+def run_arguments(suite: str, workers: int, out: Path, limit: int | None = None) -> list[str]:
+    """`cocobench run`'s arguments for a run of `suite` (its first `limit` instances) with
+    `workers` processes."""
     return ["run", "--suite", suite, "--model", "greedy", "--baselines", "--workers",
-            str(workers), "--jobs", str(2 * workers), "--out", str(out)]
+            str(workers), "--jobs", str(2 * workers), "--out", str(out),
+            *(["--limit", str(limit)] if limit else [])]
 
 
 def wall_time(suite: str, workers: int) -> float:
@@ -128,13 +131,14 @@ class Profile:
         return self.start_cpu_s + self.end_cpu_s
 
 
-def profiled_run(suite: str, workers: int) -> Profile:
-    """Run `suite` once with `workers` processes and time its phases."""
+def profiled_run(suite: str, workers: int, limit: int | None = None) -> Profile:
+    """Run `suite` (its first `limit` instances) once with `workers` processes and time its
+    phases."""
     with tempfile.TemporaryDirectory() as tmp:
         dump = Path(tmp) / "profile.json"
         spawned = time.time()
         done = subprocess.run([sys.executable, "-c", PROFILED_RUN, str(dump),
-                               *run_arguments(suite, workers, Path(tmp) / "run")],
+                               *run_arguments(suite, workers, Path(tmp) / "run", limit)],
                               capture_output=True, text=True,
                               env={**os.environ, "NO_COLOR": "1"})
         exited = time.time()
@@ -228,15 +232,16 @@ def predict(one: Profile, per_worker_s: float, cores: int) -> tuple[float, float
     return t_one, t_many
 
 
-def profile(suite: str, counts: list[int], cores: int) -> None:
+def profile(suite: str, counts: list[int], cores: int, limit: int | None = None) -> None:
     """Profile one run per worker count; print each phase and the predicted speed-ups."""
-    print(f"{suite}: greedy + baselines, --jobs 2W; load average {os.getloadavg()[0]:.1f}\n"
-          "wall seconds (supervisor CPU seconds in brackets)")
+    part = f" (first {limit} instances)" if limit else ""
+    print(f"{suite}{part}: greedy + baselines, --jobs 2W; load average "
+          f"{os.getloadavg()[0]:.1f}\nwall seconds (supervisor CPU seconds in brackets)")
     print(f"{'workers':>7} {'wall':>6} {'start':>12} {'parallel':>8} {'tail idle':>10} "
           f"{'end':>11} {'supervisor':>10} {'workers':>8}")
     profiles = {}
     for workers in counts:
-        p = profiles[workers] = profiled_run(suite, workers)
+        p = profiles[workers] = profiled_run(suite, workers, limit)
         print(f"{workers:>7} {p.wall_s:>6.1f} {p.start_s:>5.1f} ({p.start_cpu_s:4.1f}) "
               f"{p.parallel_s:>8.1f} {p.tail_idle_s / workers:>9.1f}s {p.end_s:>4.1f} "
               f"({p.end_cpu_s:4.1f}) {p.supervisor_cpu_s:>9.1f}s {p.workers_cpu_s:>7.1f}s",
@@ -272,10 +277,12 @@ def main() -> None:
                         help="time each run's phases and predict the speed-up on --cores")
     parser.add_argument("--cores", type=int, default=16,
                         help="the machine --profile predicts for (default 16)")
+    parser.add_argument("--limit", type=int,
+                        help="--profile: the suite's first N instances only")
     args = parser.parse_args()
     if args.profile:
         for suite in args.suites or ["cocobench-full"]:
-            profile(suite, args.workers or [1], args.cores)
+            profile(suite, args.workers or [1], args.cores, args.limit)
         return
     cores = available_cores()
     counts = args.workers or worker_counts(cores)
