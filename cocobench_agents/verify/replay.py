@@ -146,6 +146,7 @@ def replay(config: TaskConfig, document: Mapping[str, Any], *,
     if not isinstance(decisions, list):
         raise Mismatch("planner_decisions", "not a list of decisions")
     by_step = _decisions_by_step(decisions)
+    recorded_decisions = {_json(decision) for decision in decisions}
     episode = Episode(config)
     episode.reset()
     for index, recorded in enumerate(items):
@@ -155,6 +156,11 @@ def replay(config: TaskConfig, document: Mapping[str, Any], *,
         if index > 0:
             _land(episode, recorded, index)
         _compare(recorded, episode.items[-1], index)
+        decision = recorded.get("policy_decision")
+        if ("skill_result" in recorded and decision is not None
+                and _json(decision) not in recorded_decisions):
+            raise Mismatch("policy_decision", "not one of the episode's planner_decisions "
+                           "(a step's decision is recorded in both)", index)
     for leftover in by_step.values():  # decisions of steps the trajectory does not have
         step = leftover[0].get("step_index")
         raise Mismatch("planner_decisions.step_index", f"a decision at step {step}, which "

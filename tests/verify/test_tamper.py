@@ -328,3 +328,15 @@ def test_a_stranger_edits_any_field_and_verify_answers_with_a_verdict(demo_run: 
     assert verdict.status in ("verified", "mismatch")
     if verdict.status == "verified" and document != original:
         assert "policy_decision" in path or "planner_decisions" in path, (path, value)
+
+
+def test_a_steps_decision_edited_apart_from_the_episodes_decisions(copy_run: CopyRun) -> None:
+    run = copy_run()
+    line = episode_line(run)
+    document = trajectory(run, line)
+    step = landed(document)[1]
+    document["trajectory"][step]["policy_decision"]["raw_output"] = "ACTION: 13 (edited)"
+    write_trajectory(run, line, document)
+    verdict = verdict_of(run, line)
+    assert (verdict.status, verdict.step, verdict.field) == ("mismatch", step,
+                                                             "policy_decision")
