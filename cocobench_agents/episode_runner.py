@@ -27,7 +27,7 @@ from cocobench_agents.graphs.node_errors import (
     run_to_end,
 )
 from cocobench_agents.models.human import HUMAN, HumanTurn
-from cocobench_agents.models.protocol import ModelClient
+from cocobench_agents.models.protocol import TEAM_SEAT, ModelClient
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.prompts import DEFAULT_SUITE, load_prompt_suite
 from cocobench_agents.tools import EpisodeTools, stop_decision
@@ -92,12 +92,12 @@ class ClientFactory(Protocol):
 
 
 def seat_models(spec: EpisodeSpec) -> dict[str, str]:
-    """The model of each client the episode makes: the team's ("*") and, for decentralized
+    """The model of each client the episode makes: the team's (`TEAM_SEAT`) and, for decentralized
     planners, each agent's; none for a planner that uses no model."""
     planner = planner_spec(spec.planner)
     if not planner.uses_models:
         return {}
-    seats = {DEFAULT_MODEL_KEY: spec.model_for(None)}
+    seats = {TEAM_SEAT: spec.model_for(None)}
     if planner.decentralized:
         seats.update({agent: spec.model_for(agent) for agent in spec.config.agent_ids})
     return seats
@@ -109,9 +109,9 @@ def has_human_seat(spec: EpisodeSpec) -> bool:
 
 
 def make_clients(spec: EpisodeSpec, pool: ClientFactory) -> dict[str, ModelClient]:
-    """The team's client ("*") and, for decentralized planners, one client per agent."""
+    """The team's client (`TEAM_SEAT`) and, for decentralized planners, one per agent."""
     return {seat: pool.client(model, episode=spec.episode,
-                              agent=None if seat == DEFAULT_MODEL_KEY else seat)
+                              agent=None if seat == TEAM_SEAT else seat)
             for seat, model in seat_models(spec).items()}
 
 

@@ -118,8 +118,8 @@ def check_off_menu(off_menu: str) -> None:
 
 
 def _client_key(seat: str) -> str:
-    """The `PlannerContext.clients` key of a seat: "*" for the team's planner and the leader."""
-    return DEFAULT_MODEL_KEY if seat in (TEAM_SEAT, LEADER_SEAT) else seat
+    """The `PlannerContext.clients` key of a seat: the team's for the leader too."""
+    return TEAM_SEAT if seat == LEADER_SEAT else seat
 
 
 def _client_agent(seat: str) -> str | None:
@@ -216,13 +216,13 @@ class SeatedEpisode:
         self._settle()
 
     def _clients(self) -> dict[str, Any]:
-        """Each seat's client, under the key the planner asks it by ("*": the team's, the
-        leader's): a learner's waits for its action; a partner's is a model (or the
+        """Each seat's client, under the key the planner asks it by (the team's: the
+        leader's too): a learner's waits for its action; a partner's is a model (or the
         reference plan)."""
         plan = OraclePlan(self._episode) if ORACLE in self.partners.values() else None
         retry = self.planner.retry_policy or run_retry_policy(self.pool)
         clients: dict[str, Any] = {
-            DEFAULT_MODEL_KEY: NoSeatClient(self.model, self.planner.name, self.seats)}
+            TEAM_SEAT: NoSeatClient(self.model, self.planner.name, self.seats)}
         for seat in self.seats:
             model = self.partners.get(seat)
             if model is None:

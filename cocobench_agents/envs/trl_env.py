@@ -43,7 +43,7 @@ class CoCoBenchTRLEnv:
 
     source: ClassVar[str] = DEMO_SUITE
     condition: ClassVar[str] = condition_name(planner_spec(DEFAULT_PLANNER).code, BLIND)
-    seat: ClassVar[str] = "team"
+    seat: ClassVar[str] = TEAM_SEAT
     partner: ClassVar[str] = "greedy"
     task_id: ClassVar[str | None] = None
     prompt_suite: ClassVar[str] = DEFAULT_SUITE

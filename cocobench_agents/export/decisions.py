@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from cocobench_agents.export.columns import IMAGE_COLUMN
+from cocobench_agents.models.protocol import TEAM_SEAT
 from cocobench_agents.models.secrets import redact_obj, secret_values
 from cocobench_agents.rewards import DEFAULT_WEIGHTS, end_reward
 from cocobench_agents.runfolder import RunFolder
@@ -28,7 +29,7 @@ from cocobench_agents.runfolder.infra import is_infra_failure
 #: did not (`legal` is null for the others: no reply, a leader's plan for its workers).
 LEGAL_STATUSES = ("action", "done")
 ILLEGAL_STATUSES = ("parse_error", "invalid_action_id")
-CENTRALIZED_SEAT = "team"
+CENTRALIZED_SEAT = TEAM_SEAT
 
 
 @dataclass

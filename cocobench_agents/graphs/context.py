@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from cocobench_agents.graphs.model_calls import recording_clients
-from cocobench_agents.models.protocol import ModelClient
+from cocobench_agents.models.protocol import TEAM_SEAT, ModelClient
 from cocobench_agents.models.retry import RetryPolicy
 from cocobench_agents.tools import EpisodeTools
 
@@ -15,7 +15,7 @@ class PlannerContext:
     """Everything a node may use besides state."""
 
     tools: EpisodeTools
-    clients: dict[str, ModelClient]  # per agent; key "*" is the centralized / leader model
+    clients: dict[str, ModelClient]  # per agent; key TEAM_SEAT: the team's (or leader's) model
     budget: int | None  # landed steps allowed (None: unbounded)
     sample_index: int = 0
     # How decide retries transient model failures; the run-level options by default.
@@ -29,7 +29,7 @@ class PlannerContext:
         """The model that decides for `agent` (None: the team's planner)."""
         if agent is not None and agent in self.clients:
             return self.clients[agent]
-        return self.clients["*"]
+        return self.clients[TEAM_SEAT]
 
     def budget_spent(self) -> bool:
         """Whether the step budget is used up."""

@@ -13,6 +13,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from cocobench_agents.models.protocol import TEAM_SEAT
 from cocobench_agents.models.retry import RetryPolicy
 
 if TYPE_CHECKING:
@@ -24,7 +25,7 @@ STEP, ROUND, LED_ROUND = "step", "round", "led-round"
 LOOPS = (STEP, ROUND, LED_ROUND)
 #: The seats a decision round asks: the team's planner, a leader, an agent. `PlannerSpec.prompt`
 #: is one of the first and the last: the prompt its agents' (or its team's) decisions render.
-TEAM_SEAT, LEADER_SEAT, AGENT_SEAT = "team", "leader", "agent"
+LEADER_SEAT, AGENT_SEAT = "leader", "agent"
 PROMPTS = (TEAM_SEAT, AGENT_SEAT)
 
 #: The built-in planners the rest of the package names: the default of a run, and the

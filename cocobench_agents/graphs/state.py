@@ -12,7 +12,9 @@ from typing import Annotated, Any
 # Studio shows it) refuses typing's.
 from typing_extensions import TypedDict
 
-TEAM = "__team__"  # history key of a centralized planner (one history for the whole team)
+from cocobench_agents.models.protocol import TEAM_SEAT
+
+TEAM = TEAM_SEAT  # history key of the team-wide history (a centralized planner, the leader)
 
 
 def collect(old: list[dict[str, Any]] | None, new: list[dict[str, Any]] | None

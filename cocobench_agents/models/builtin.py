@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .errors import ModelConfigError
 from .human import HUMAN
-from .protocol import MenuOption, ModelReply, ModelRequest
+from .protocol import TEAM_SEAT, MenuOption, ModelReply, ModelRequest
 from .replay import ReplayClient, ReplaySource
 
 __all__ = [
@@ -145,10 +145,13 @@ def stream_episode(episode: str) -> str:
 
 class Script:
     """Replies read from a file: a JSON list (every agent gets the whole list), a JSON object
-    agent → list (``"centralized"`` for the centralized planner, ``"*"`` for any agent not
-    listed), or a text file of replies separated by lines holding only ``---``."""
+    seat → list (a robot's id; ``"team"``, `TEAM_SEAT`, for the team's model: a centralized
+    planner's or a leader's; ``"*"`` for any seat not listed), or a text file of replies
+    separated by lines holding only ``---``. Files written before the team's seat had one
+    name key it ``"centralized"``: read as ``"team"`` where no ``"team"`` entry is given."""
 
-    CENTRALIZED = "centralized"
+    TEAM = TEAM_SEAT
+    OLD_TEAM = "centralized"  # the team's key in files written before `TEAM_SEAT`
     ANY = "*"
 
     def __init__(self, path: str | Path, spec: str | None = None) -> None:
@@ -194,8 +197,11 @@ class Script:
 
     def for_agent(self, agent: str | None) -> list[str]:
         """The replies one agent's client uses, in order."""
-        key = self.CENTRALIZED if agent is None else agent
-        return list(self.replies.get(key, self.replies.get(self.ANY, [])))
+        if agent is None:
+            replies = self.replies.get(self.TEAM, self.replies.get(self.OLD_TEAM))
+            if replies is not None:
+                return list(replies)
+        return list(self.replies.get(agent or self.ANY, self.replies.get(self.ANY, [])))
 
 
 class ScriptedClient:

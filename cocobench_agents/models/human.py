@@ -17,7 +17,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from .grammar import wants_message
 from .messages import image_data_url
-from .protocol import EpisodeHalt, ModelError, ModelReply, ModelRequest
+from .protocol import TEAM_SEAT, EpisodeHalt, ModelError, ModelReply, ModelRequest
 
 HUMAN = "human"
 
@@ -32,7 +32,7 @@ class Decision:
     # The episode's folder under the run's `episodes/` (model/condition[/arm]/task[@eN]);
     # the engine's EpisodeStarted / EpisodeRecorded events carry its key and result.
     episode: str
-    seat: str  # the deciding agent, or "team" for a centralized planner
+    seat: str  # the deciding agent, or TEAM_SEAT ("team") for the team's model
     prompt: str  # the full rendered prompt
     images: tuple[str, ...] = ()  # the frames as data URLs (image mode)
     menu: tuple[dict[str, Any], ...] = ()  # {"id": 3, "skill": "PickUp", "call": "PickUp(…)"}
@@ -143,7 +143,7 @@ class HumanClient:
         return ModelReply(text=answer.reply_text(decision.wants_message), latency_s=think)
 
     def decision(self, request: ModelRequest) -> Decision:
-        seat = request.agent or "team"
+        seat = request.agent or TEAM_SEAT
         return Decision(
             id=f"{self.episode}#{seat}#{self.asked + 1}", episode=self.episode, seat=seat,
             prompt=request.prompt, images=tuple(image_data_url(png) for png in request.images),

@@ -16,6 +16,12 @@ class MenuOption:
     call: str
 
 
+#: The team's seat: the one name of the model that decides for the whole team (a centralized
+#: planner's, a leader's), whose requests carry no `agent`. A planner context's clients, a
+#: `scripted:` file and a person's desk name it so.
+TEAM_SEAT = "team"
+
+
 @dataclass(frozen=True)
 class ModelRequest:
     """One planner decision to make."""

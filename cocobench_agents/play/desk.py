@@ -18,6 +18,7 @@ from typing import Any
 
 from cocobench_agents.engine import events
 from cocobench_agents.models.human import Answer, Decision, Recorder
+from cocobench_agents.models.protocol import TEAM_SEAT
 from cocobench_agents.play.prompt_parts import (
     agent_label,
     menu_labels,
@@ -237,7 +238,7 @@ def _shown(decision: Decision, landed: list[tuple[str, int, str]]) -> dict[str, 
         if agent != _agent_of(option["call"]):  # a line of one's own wording: kept whole
             agent, label = None, line
         option["agent"], option["label"] = agent, label
-    own = [(step, call) for agent, step, call in landed if decision.seat in ("team", agent)]
+    own = [(step, call) for agent, step, call in landed if decision.seat in (TEAM_SEAT, agent)]
     history = numbered_history(parts.get("history", ""), own)
     if history is not None:
         parts["history"] = "\n".join(history)

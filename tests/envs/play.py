@@ -76,7 +76,7 @@ def done_after(steps: int, seed: int) -> Policy:
 
 def play(episode: SeatedEpisode, policy: Policy) -> dict[str, list[str]]:
     """Play `episode` to its end; the replies each seat's scripted client must send (keyed
-    as `Script` reads them: the team's and the leader's under "centralized")."""
+    as `Script` reads them: the team's and the leader's under `TEAM_SEAT`)."""
     replies: dict[str, list[str]] = {}
     while not episode.finished:
         moves = {}
@@ -86,7 +86,7 @@ def play(episode: SeatedEpisode, policy: Policy) -> dict[str, list[str]]:
             moves[seat] = move
             if not view.acting:
                 continue
-            key = Script.CENTRALIZED if seat in (TEAM_SEAT, LEADER_SEAT) else seat
+            key = Script.TEAM if seat in (TEAM_SEAT, LEADER_SEAT) else seat
             if seat == LEADER_SEAT:
                 replies.setdefault(key, []).append(move.message)
             elif view.menu:  # no model call on an empty menu

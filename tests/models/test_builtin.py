@@ -234,3 +234,16 @@ def test_builtins_are_free_and_instant(tmp_path):
         reply = ask(make(spec))
         assert (reply.prompt_tokens, reply.completion_tokens, reply.cost_usd) == (0, 0, 0.0)
         assert reply.latency_s == 0.0 and reply.retries == 0 and not reply.cached
+
+
+def test_the_team_seat_is_keyed_team_and_old_scripts_still_read(tmp_path):
+    """A script keys the team's model (a centralized planner's, a leader's) by the team's
+    one seat name, "team"; a file written when it was keyed by the planner's name,
+    "centralized", still reads, and "team" wins where both are given."""
+    both = tmp_path / "both.json"
+    both.write_text(json.dumps({"team": ["ACTION: 2"], "centralized": ["ACTION: 5"]}))
+    assert ask(make(f"scripted:{both}", agent=None)).text == "ACTION: 2"
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"centralized": ["ACTION: 5"], "*": ["ACTION: 8"]}))
+    assert ask(make(f"scripted:{old}", agent=None)).text == "ACTION: 5"
+    assert ask(make(f"scripted:{old}", agent="agent_1")).text == "ACTION: 8"
