@@ -21,6 +21,7 @@ pytestmark = [pytest.mark.needs_env, pytest.mark.usefixtures("quiet")]
 TASKS = str(SHARED_TASKS)
 REAL = "A_D1__FloorPlan1__seed0"  # agents agent_1, agent_2
 ENVS = Path(__file__).resolve().parents[2] / "cocobench_agents" / "envs"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def claim_board() -> str:
@@ -88,6 +89,25 @@ def test_a_claim_board_episode_scores_as_its_scripted_run(tmp_path):
     env_result, run_result = scored_both_ways(config, planner, "random", tmp_path, 0)
     assert differences(env_result, run_result) == {}
     assert env_result.num_steps > 0 and env_result.condition == "CL_blind"
+
+
+def test_a_strategy_in_a_users_file_is_an_environment(tmp_path):
+    """A strategy in the researcher's own file (the first-come example, copied out of the
+    repository): PettingZoo's API test passes, and an episode scores as its scripted run."""
+    from pettingzoo.test import parallel_api_test
+
+    from cocobench_agents.envs import parallel_env
+    from tests.envs.test_equality import differences, scored_both_ways
+
+    mine = tmp_path / "mine.py"
+    mine.write_text((EXAMPLES / "strategies" / "first_come.py").read_text(encoding="utf-8"))
+    planner = f"{mine}:FIRST_COME"
+    environment = parallel_env(TASKS, condition=f"{planner}_blind", task_id=REAL, seed=0)
+    assert environment.possible_agents == ["agent_1", "agent_2"]
+    parallel_api_test(environment, num_cycles=20)
+    env_result, run_result = scored_both_ways(load_tasks(SHARED_TASKS)[0], planner, "random",
+                                              tmp_path, 0)
+    assert differences(env_result, run_result) == {} and env_result.num_steps > 0
 
 
 def test_a_planner_that_calls_no_model_has_no_seat():

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+from pathlib import Path
 
 import pytest
 
@@ -39,7 +40,7 @@ POLICIES = {"oracle": lambda i: oracle_policy(), "random": random_policy,
 def scored_both_ways(config, planner: str, policy_name: str, tmp_path, index: int):
     from cocobench_agents.envs import SeatedEpisode
 
-    script = tmp_path / f"{config.task_id}-{planner}-{policy_name}.json"
+    script = tmp_path / f"{config.task_id}-{Path(planner).name}-{policy_name}.json"
     spec = EpisodeSpec(config, planner=planner, models={"*": f"scripted:{script}"},
                        obs_mode="blind", max_steps=24)
     episode = SeatedEpisode(spec)
