@@ -18,7 +18,7 @@ from cocobench_agents.models.protocol import (
     ModelRequest,
 )
 from cocobench_agents.models.retry import AttemptingClient
-from cocobench_agents.tools import EpisodeTools, prompt_hash, reply_fields
+from cocobench_agents.tools import EpisodeTools, prompt_hash, prompt_text, reply_fields
 
 #: The statuses of a call made with a client directly: answered, or failed.
 DIRECT, DIRECT_ERROR = "direct", "direct_error"
@@ -43,7 +43,7 @@ class RecordingClient:
         return await self._recorded(request, lambda: self.client.complete(request))
 
     async def _recorded(self, request: ModelRequest, call: Any) -> ModelReply:
-        prompt = self.tools.keep(request.prompt)
+        prompt = self.tools.keep(prompt_text(request.prompt))
         record = {"policy": DIRECT, "model": self.name, "agent": request.agent,
                   "step_index": self.tools.step_index, "status": DIRECT,
                   "terminal_reason": None, "parsed_call": None,

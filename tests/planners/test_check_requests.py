@@ -78,6 +78,25 @@ def test_check_passes_a_well_formed_request(tmp_path, capsys):
     assert main(["planners", f"{strategy}:build_priced", "--check"]) == 0
 
 
+def test_a_prompt_of_content_parts_is_recorded_then_judged_as_a_server_would(tmp_path, capsys):
+    """A client used directly with a prompt of content parts: the call recorder keeps it
+    (hashed over its JSON) and the schema check judges it, taking chat parts, refusing
+    another API's part with the strategy's line."""
+    strategy = tmp_path / "priced.py"
+    strategy.write_text(STRATEGY.format(
+        request='{"prompt": [{"type": "text", "text": "price?"}]}'))
+    assert main(["planners", f"{strategy}:build_priced", "--check"]) == 0
+    strategy = tmp_path / "priced_otherwise.py"  # a file of its own: one path loads once
+    strategy.write_text(STRATEGY.format(
+        request='{"prompt": [{"type": "input_text", "text": "price?"}]}'))
+    assert main(["planners", f"{strategy}:build_priced", "--check"]) == 1
+    sent = line_of(strategy, "await ctx.client_for(None).complete")
+    err = capsys.readouterr().err
+    assert "messages[0].content[0]: Input tag 'input_text'" in err
+    assert f"(sent from {strategy}, line {sent})" in err
+    assert "Traceback" not in err
+
+
 def test_what_the_remote_clients_send_passes_the_schema():
     assert request_problem(ModelRequest("decide", images=(PNG, PNG))) is None
     assert request_problem(ModelRequest("decide")) is None
