@@ -144,8 +144,12 @@ def planner_context(spec: EpisodeSpec, tools: EpisodeTools, clients: dict[str, M
     seats' `clients`, the step budget and the retry policy (the planner's, else the run's)."""
     return PlannerContext(tools=tools, clients=clients, budget=spec.budget,
                           sample_index=spec.sample_index,
-                          retry_policy=planner_spec(spec.planner).retry_policy
-                          or run_retry_policy(pool))
+                          retry_policy=episode_retry_policy(spec, pool))
+
+
+def episode_retry_policy(spec: EpisodeSpec, pool: ClientFactory) -> RetryPolicy:
+    """How the episode's model calls are retried: the planner's policy, else the run's."""
+    return planner_spec(spec.planner).retry_policy or run_retry_policy(pool)
 
 
 async def play_episode(spec: EpisodeSpec, context: PlannerContext,

@@ -37,10 +37,10 @@ from cocobench_agents.episode_runner import (
     DEFAULT_MODEL_KEY,
     ClientFactory,
     EpisodeSpec,
+    episode_retry_policy,
     episode_tools,
     planner_context,
     play_episode,
-    run_retry_policy,
 )
 from cocobench_agents.graphs import ORACLE, planner_spec
 from cocobench_agents.graphs.registry import (
@@ -220,7 +220,7 @@ class SeatedEpisode:
         leader's too): a learner's waits for its action; a partner's is a model (or the
         reference plan)."""
         plan = OraclePlan(self._episode) if ORACLE in self.partners.values() else None
-        retry = self.planner.retry_policy or run_retry_policy(self.pool)
+        retry = episode_retry_policy(self.spec, self.pool)
         clients: dict[str, Any] = {
             TEAM_SEAT: NoSeatClient(self.model, self.planner.name, self.seats)}
         for seat in self.seats:
