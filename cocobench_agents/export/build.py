@@ -18,7 +18,7 @@ from cocobench_agents.export.selection import Selection
 from cocobench_agents.export.writer import DATA_FILE, check_out, require_pyarrow, write_rows
 from cocobench_agents.partial_output import removed_on_failure
 from cocobench_agents.runfolder import RunFolderError
-from cocobench_agents.runfolder.infra import is_infra_failure
+from cocobench_agents.runfolder.infra import is_infra_failure, is_planner_failure
 
 CARD_FILE = "README.md"
 
@@ -39,7 +39,8 @@ def export_runs(runs: Sequence[str | Path], out: str | Path, *, where: Sequence[
                 include_infra: bool = False) -> ExportSummary:
     """Write the model decisions of the episodes of `runs` that pass every `where` selector
     (`selection.SELECTORS`) as `out/data/…parquet`, with its card `out/README.md`.
-    Infrastructure failures (`runfolder.infra`) are left out unless `include_infra`.
+    Infrastructure failures (`runfolder.infra`) are left out unless `include_infra`, planner
+    errors (the strategy's own code failed) always.
     `ExportError` for a mistake of the caller's, `ExportWriteError` when `out` cannot be
     written."""
     out = Path(out)
@@ -68,24 +69,42 @@ def export_runs(runs: Sequence[str | Path], out: str | Path, *, where: Sequence[
 
 def _choose(runs: Sequence[Run], selection: Selection, include_infra: bool
             ) -> tuple[list[tuple[Run, Mapping[str, Any]]], list[str]]:
-    """The (run, result line) of every episode to export, and what was left out, counted."""
-    chosen, infra = [], 0
+    """The (run, result line) of every episode to export, and what was left out, counted.
+    An episode the strategy's own code ended is never exported: its decisions are not the
+    model's to learn from (and running it again fails the same way)."""
+    chosen, infra, planner = [], 0, 0
     for run in runs:
         for line in run.episodes:
             if not selection.keeps(line):
                 continue
-            if is_infra_failure(line) and not include_infra:
+            if is_planner_failure(line):
+                planner += 1
+            elif is_infra_failure(line) and not include_infra:
                 infra += 1
-                continue
-            chosen.append((run, line))
-    if not chosen and not infra:
-        raise ExportError(selection.explain_empty(line for run in runs for line in run.episodes))
+            else:
+                chosen.append((run, line))
     if not chosen:
-        raise ExportError(f"every selected episode ({infra}) is an infrastructure failure; "
-                          "pass --include-infra to export them anyway")
+        raise ExportError(_nothing_left(runs, selection, infra, planner))
     left_out = [f"{infra} infrastructure-failure episode(s) (--include-infra keeps them)"
                 ] if infra else []
+    if planner:
+        left_out.append(f"{planner} planner-error episode(s) (the strategy's own code failed; "
+                        "fix it and run them again)")
     return chosen, left_out
+
+
+def _nothing_left(runs: Sequence[Run], selection: Selection, infra: int, planner: int) -> str:
+    """Why no selected episode is exported."""
+    if not infra and not planner:
+        return selection.explain_empty(line for run in runs for line in run.episodes)
+    if not infra:
+        return (f"every selected episode ({planner}) is a planner error (the strategy's own "
+                "code failed): nothing to export")
+    if not planner:
+        return (f"every selected episode ({infra}) is an infrastructure failure; pass "
+                "--include-infra to export them anyway")
+    return (f"every selected episode is an infrastructure failure ({infra}) or a planner "
+            f"error ({planner}); pass --include-infra to export the infrastructure failures")
 
 
 def _rows(chosen: Sequence[tuple[Run, Mapping[str, Any]]], redact: Redactor,

@@ -1,7 +1,7 @@
 """The unhappy paths of `cocobench export`: every mistake is one line naming the path or the
 `--where` at fault (exit code 2, nothing written); a folder that cannot be written is exit
 code 1 with what was written removed; what a run holds that cannot be exported (a torn last
-line, infrastructure failures) is said, not silently dropped."""
+line, infrastructure failures, planner errors) is said, not silently dropped."""
 
 from __future__ import annotations
 
@@ -187,6 +187,30 @@ def test_infrastructure_failures_are_left_out_unless_asked(capsys, run_copy, tmp
                      f"condition={failed[1]}").endswith(
         "every selected episode (1) is an infrastructure failure; pass --include-infra to "
         "export them anyway")
+
+
+@pytest.mark.needs_export
+def test_planner_errors_are_left_out_as_not_the_models_decisions(capsys, run_copy, tmp_path):
+    """An episode the strategy's own code ended (`planner_error`) is not training data of the
+    model: left out, counted in a warning and in the card, even with --include-infra."""
+    results = run_copy / "results.jsonl"
+    lines = result_lines(run_copy)
+    lines[0]["planner_error"] = "ValueError: boom in node 'act' (strategy.py, line 9)"
+    results.write_text("".join(json.dumps(line) + "\n" for line in lines))
+    failed = episode_of(lines[0])
+
+    for out, flags in ((tmp_path / "a", ()), (tmp_path / "b", ("--include-infra",))):
+        code, _, err = export(capsys, run_copy, "--out", out, *flags)
+        assert code == 0, err
+        assert "warning: left out: 1 planner-error episode(s) (the strategy's own code " \
+               "failed; fix it and run them again)" in err
+        assert failed not in {episode_of(r) for r in load(out, tmp_path / "cache")}
+        assert "left out: 1 planner-error" in (out / "README.md").read_text()
+    assert one_error(capsys, run_copy, "--out", tmp_path / "c", "--where",
+                     f"task_id={failed[2]}", "--where", f"model={failed[0]}", "--where",
+                     f"condition={failed[1]}").endswith(
+        "every selected episode (1) is a planner error (the strategy's own code failed): "
+        "nothing to export")
 
 
 def test_export_is_listed_and_loads_nothing_optional():
