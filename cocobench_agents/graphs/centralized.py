@@ -30,8 +30,7 @@ async def act(state: PlannerState, runtime: Runtime[PlannerContext]) -> dict[str
 def land_decision(ctx: PlannerContext, state: PlannerState, decision: dict[str, Any]
                   ) -> dict[str, Any]:
     """Record the step's decision and land its call; any decision without a call ends the
-    episode (no re-prompt). The state update; the training environment
-    (`cocobench_agents.envs`) steps a C0 episode with this very function."""
+    episode (no re-prompt). The state update."""
     tools = ctx.tools
     tools.record(decision, model_call=decision["status"] != "no_actions")
     call = decision["parsed_call"]

@@ -83,8 +83,7 @@ def reply_decision(tools: EpisodeTools, agent: str | None, menu: Sequence[MenuEn
                    prompt: str, reply: ModelReply, *, policy: str, model: str,
                    broadcast: bool) -> dict[str, Any]:
     """The decision record of `reply`, a model's answer to `prompt` for `agent` with `menu`:
-    its action parsed against the menu, and under `broadcast` its message. The training
-    environment (`cocobench_agents.envs`) turns a seat's action into its decision here."""
+    its action parsed against the menu, and under `broadcast` its message."""
     parsed = parse_reply(reply.text, [e.action_id for e in menu])
     call = (next((e.call for e in menu if e.action_id == parsed.action_id), None)
             if parsed.status == "action" else None)

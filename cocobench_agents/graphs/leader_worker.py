@@ -78,8 +78,7 @@ def record_directives(tools: EpisodeTools, model: str, prompt: str, *,
                       ) -> dict[str, str]:
     """Record the leader's decision (its reply, or the error that silenced it) and return
     its instruction to each robot named in the reply (``agent_N: …`` lines, 200 characters
-    each). The training environment's leader seat (`cocobench_agents.envs`) goes through
-    here too."""
+    each)."""
     record: dict[str, Any] = {"policy": POLICY, "model": model, "agent": None,
                               "step_index": tools.step_index, "status": "plan",
                               "terminal_reason": None, "prompt_hash": prompt_hash(prompt)}

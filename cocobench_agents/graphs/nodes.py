@@ -35,8 +35,8 @@ async def land_round(state: PlannerState, runtime: Runtime[PlannerContext]) -> d
 def land_decisions(ctx: PlannerContext, state: PlannerState, pending: list[dict[str, Any]]
                    ) -> dict[str, Any]:
     """Record a round's decisions in agent order, then land their calls in that order; the
-    state update. The round rule of every round-loop planner, and of the training
-    environment (`cocobench_agents.envs`), which steps an episode with this very function.
+    state update. The round rule of every round-loop planner (the training environments
+    play the planner's graph, so this rule too: `cocobench_agents.envs`).
 
     A round in which nobody acts ends the episode, recorded with the last agent's decision
     (the reference's rule). The budget can cut a round short; messages of agents whose
