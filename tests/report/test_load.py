@@ -178,3 +178,17 @@ def test_not_a_run_folder(tmp_path: Path, make: str) -> None:
     path = not_a_run_folder(tmp_path / "x", make)
     with pytest.raises(NotARunFolder, match="x"):
         load_runs([path])
+
+
+def test_every_terminal_state_a_report_shows_is_explained_in_its_docs():
+    """A kind of ending the loader gives an episode beside the benchmark's (`infra_error`, a
+    strategy's `planner_error`, `unrecorded`) is named in docs/reports.md, as the README's
+    paragraph on errors names the planner error."""
+    from benchmark_adapter.metrics import FAILURE_KINDS
+    from cocobench_agents.reports.load import INFRA_KIND, PLANNER_KIND, UNRECORDED_KIND
+
+    root = Path(__file__).resolve().parents[2]
+    reports = (root / "docs" / "reports.md").read_text()
+    for kind in (*FAILURE_KINDS, INFRA_KIND, PLANNER_KIND, UNRECORDED_KIND):
+        assert f"`{kind}`" in reports, kind
+    assert "planner error" in (root / "README.md").read_text()
