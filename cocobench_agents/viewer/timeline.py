@@ -20,6 +20,8 @@ NO_REPLY = "reply not stored in this run"
 #: Statuses of a strategy's own calls that got an answer (`graphs.model_calls`): an `ask`
 #: without a menu, a call made with a client directly.
 ANSWERED = ("reply", "direct")
+#: The status of a leader's reply (leader–worker): its plan, an instruction to each robot.
+PLAN = "plan"
 
 
 @dataclass
@@ -46,8 +48,10 @@ class Decision:
 
     @property
     def kind(self) -> str | None:
-        """What a strategy's own call was (``ask · pricing``, ``direct call``); None for a
-        decision."""
+        """What a call that lands no step itself was (``ask · pricing``, ``direct call``,
+        ``leader plan``); None for a decision of an action."""
+        if self.status == PLAN:
+            return "leader plan"
         if self.record.get("ask"):
             return f"ask · {self.record['ask']}"
         if self.record.get("policy") == "direct":
@@ -56,6 +60,11 @@ class Decision:
 
     @property
     def parsed(self) -> str:
+        if self.status == PLAN:
+            directives = self.record.get("directives")
+            if isinstance(directives, Mapping) and directives:
+                return "; ".join(f"{agent}: {text}" for agent, text in directives.items())
+            return "no instruction to any robot"
         if self.kind is not None:
             answer = self.record.get("answer")
             return f"answer: {answer}" if isinstance(answer, str) else ""
@@ -68,7 +77,7 @@ class Decision:
     @property
     def failure(self) -> str | None:
         """The protocol or backend failure of a call that landed nothing."""
-        if self.record.get("parsed_call") or self.status in ("action", *ANSWERED):
+        if self.record.get("parsed_call") or self.status in ("action", PLAN, *ANSWERED):
             return None
         detail = self.record.get("error") or self.record.get("terminal_reason") or ""
         kind = self.record.get("error_kind")

@@ -47,3 +47,24 @@ def test_both_calls_of_a_round_are_on_the_episode_page(tmp_path: Path) -> None:
     assert "protocol failure" not in page.split("<h2>Timeline")[1].split("outbid")[0]
     (line,) = [json.loads(x) for x in (out / "results.jsonl").read_text().splitlines()]
     assert line["usage"]["model_calls"] == 6
+
+
+def test_a_leaders_plan_is_a_decision_of_the_leader_not_a_failure(tmp_path: Path) -> None:
+    """Leader–worker: the leader's reply each round is its plan, recorded with status
+    ``plan``; the page shows it as the leader's decision, with its instruction to each
+    robot, never as a protocol failure."""
+    script = tmp_path / "script.json"
+    script.write_text(json.dumps({
+        "team": ["agent_1: find the Book\nagent_2: find the RemoteControl"],
+        "agent_1": ["ACTION: 0", "ACTION: DONE"], "agent_2": ["ACTION: 26", "ACTION: DONE"]}))
+    out = tmp_path / "run"
+    cb.run(cb.RunRequest(out=out, models=[f"scripted:{script}"], planners=["leader-worker"],
+                         obs_modes=["blind"], max_steps=2,
+                         selection={"sources": ["demo"], "task_ids": [G_D1]}))
+    pages = Pages.create(Catalog([out]), live=False)
+    (episode,) = pages.catalog.episodes()
+    page = html_text.unescape(pages.episode(episode)).split("<h2>Timeline")[1]
+
+    assert "protocol failure" not in page
+    assert re.findall(r'<span class="badge call"[^>]*>(.*?)</span>', page)[0] == "leader plan"
+    assert "agent_1: find the Book; agent_2: find the RemoteControl" in page
