@@ -49,21 +49,38 @@ def two_suites(tmp_path_factory) -> Path:
 
 
 def test_every_episode_runs_once_per_suite(two_suites):
+    """Each arm plays every episode itself, under its own prompts. Its trajectory may equal
+    the other arm's (random draws the same under both arms: common random numbers), so what
+    tells the runs apart is the prompts each arm's episode sent and recorded."""
     records = lines(two_suites)
     assert len(records) == 8
     tasks = {r["task_id"] for r in records}
     assert len(tasks) == 4
+    folder = RunFolder(two_suites)
+    arm_folders = {BASE: BASE, NO_HINT: "cocobench-v1_no-hint"}
+    for name in arm_folders.values():
+        held = two_suites / "episodes" / "random_3" / "C0_image" / name
+        assert {p.name for p in held.iterdir()} == tasks
+    sent_other_prompts = set()
     for task in tasks:
         mine = [r for r in records if r["task_id"] == task]
         assert sorted(r["arm"] for r in mine) == [BASE, NO_HINT]
         assert [r["prompt_suite"] for r in sorted(mine, key=lambda r: r["arm"])] == [BASE,
                                                                                      NO_HINT]
         paths = {r["arm"]: r["trajectory"] for r in mine}
-        assert paths == {BASE: f"episodes/random_3/C0_image/{BASE}/{task}/trajectory.json",
-                         NO_HINT: f"episodes/random_3/C0_image/cocobench-v1_no-hint/{task}/"
-                                  "trajectory.json"}
-        texts = {(two_suites / p).read_text() for p in paths.values()}
-        assert len(texts) == 2
+        assert paths == {arm: f"episodes/random_3/C0_image/{name}/{task}/trajectory.json"
+                         for arm, name in arm_folders.items()}
+        hashes = {}
+        for arm, path in paths.items():
+            decisions = json.loads((two_suites / path).read_text())["planner_decisions"]
+            hashes[arm] = {d["prompt_hash"] for d in decisions}
+            recorded = folder.prompts(EpisodeKey("random:3", "C0_image", task, 0, arm))
+            assert hashes[arm] and hashes[arm] <= recorded.keys(), (task, arm)
+        if hashes[BASE] != hashes[NO_HINT]:
+            sent_other_prompts.add(task)
+    # The instances whose prompts carry a coordination hint were sent other prompts by the
+    # no-hint arm; the others' prompts are the same text under both suites.
+    assert sent_other_prompts == {"K_D3__DemoKitchen1__seed0", "J_D4__DemoBedroom2__seed0"}
 
 
 def test_each_arm_was_sent_its_own_prompts(two_suites):

@@ -32,10 +32,13 @@ def test_an_infrastructure_errors_line_is_a_valid_failure(infra_line):
 def test_the_benchmarks_fields_are_checked_by_their_own_types(infra_line):
     checked = set(ResultLine.model_fields)
     assert {"construct_score", "num_steps", "backend", "failure_kind"} <= checked
-    assert checked - {"model", "arm", "infra_error"} <= set(EpisodeResult.model_fields)
+    own = {"model", "arm", "infra_error", "planner_error"}  # the run folder's, not the benchmark's
+    assert checked - own <= set(EpisodeResult.model_fields)
     assert line_error({**infra_line, "backend": 5}).startswith("invalid result: backend:")
     assert line_error({**infra_line, "num_steps": "3"}).startswith("invalid result: num_steps:")
     assert line_error({**infra_line, "task_success": "1"}) is not None
+    for error in ("infra_error", "planner_error"):  # the run folder's own texts
+        assert line_error({**infra_line, error: 5}).startswith(f"invalid result: {error}:")
     assert line_error({**infra_line, "node": "n1", "requeued": True}) is None  # kept as is
 
 
