@@ -6,7 +6,10 @@ Plays the PettingZoo parallel environment (`cocobench_agents.envs`) with random 
 menu and mask), and prints medians over repeated runs:
 - environment steps/s (one step: every acting seat's move, landed by the planner's rules) and
   the ratio to AI2-THOR's 13–22 actions/s per process (aim: >= 1,000 with text, >= 5,000
-  without);
+  without), with the steps per CPU-second and the load average beside them (on a shared
+  machine the wall-clock rate falls with the load; the CPU rate much less). Since the
+  environment plays the planner's own LangGraph graph (63cd55f) a step costs several times
+  what it did, and the aims are not met: see docs/environments.md, "Speed";
 - landed skill steps/s (a D-round lands up to one call per robot);
 - the environment's own time per step: all but the simulator's `Episode.step` (random
   actions are far costlier for the simulator than an oracle's plan: a `Find` of an object
@@ -110,16 +113,16 @@ class SimulatorClock:
         Episode.step = timed
 
 
-def run(environment, steps: int, seed: int) -> tuple[float, int, int, list[float]]:
-    """Seconds, environment steps and landed skill steps of `steps` steps (resetting at each
-    episode's end), and the time of each reset."""
+def run(environment, steps: int, seed: int) -> tuple[float, float, int, int, list[float]]:
+    """Seconds, CPU seconds, environment steps and landed skill steps of `steps` steps
+    (resetting at each episode's end), and the time of each reset."""
     rng = np.random.default_rng(seed)
     resets: list[float] = []
     started = time.perf_counter()
     observations, _ = environment.reset(seed=seed)
     resets.append(time.perf_counter() - started)
     landed = 0
-    begun = time.perf_counter()
+    begun, cpu_begun = time.perf_counter(), time.process_time()
     for _ in range(steps):
         if not environment.agents:
             landed += environment.episode.tools.step_index
@@ -128,7 +131,8 @@ def run(environment, steps: int, seed: int) -> tuple[float, int, int, list[float
             resets.append(time.perf_counter() - t)
         observations, *_ = environment.step(random_actions(observations, rng))
     landed += environment.episode.tools.step_index
-    return time.perf_counter() - begun, steps, landed, resets
+    return (time.perf_counter() - begun, time.process_time() - cpu_begun, steps, landed,
+            resets)
 
 
 def measure(source: str, condition: str, text: bool, steps: int, repeats: int,
@@ -140,15 +144,17 @@ def measure(source: str, condition: str, text: bool, steps: int, repeats: int,
     run(environment, 200, 0)  # warm: every instance's world built once
     if barrier is not None:
         barrier.wait()
-    rates, skill_rates, resets, own = [], [], [], []
+    rates, cpu_rates, skill_rates, resets, own = [], [], [], [], []
     for repeat in range(repeats):
         clock.seconds = 0.0
-        seconds, count, landed, reset_times = run(environment, steps, repeat)
+        seconds, cpu_seconds, count, landed, reset_times = run(environment, steps, repeat)
         own.append(1e6 * (seconds - clock.seconds) / count)
         rates.append(count / seconds)
+        cpu_rates.append(count / cpu_seconds)
         skill_rates.append(landed / seconds)
         resets.extend(reset_times)
-    return {"rate": statistics.median(rates), "skill": statistics.median(skill_rates),
+    return {"rate": statistics.median(rates), "cpu_rate": statistics.median(cpu_rates),
+            "skill": statistics.median(skill_rates),
             "own": statistics.median(own), "reset": 1000 * statistics.median(resets)}
 
 
@@ -213,7 +219,8 @@ def main() -> None:
             rate = figures["rate"]
             low, high = (rate / a for a in reversed(THOR_ACTIONS_PER_S))
             print(f"{condition:9} text={'on ' if text else 'off'}  env steps/s "
-                  f"{rate:8,.0f} (aim >= {aim(condition, text):,})  "
+                  f"{rate:8,.0f} (aim >= {aim(condition, text):,}; "
+                  f"{figures['cpu_rate']:,.0f} per CPU-s, load {os.getloadavg()[0]:.1f})  "
                   f"x{low:,.0f}–{high:,.0f} AI2-THOR  "
                   f"skill steps/s {figures['skill']:8,.0f}  env's own "
                   f"{figures['own']:5.0f} µs/step  reset {figures['reset']:6.2f} ms "
