@@ -20,8 +20,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from langgraph.errors import GraphRecursionError
-
 from cocobench_agents.graphs.plugins import describe_error
 from cocobench_agents.graphs.registry import PLANNERS
 
@@ -263,6 +261,10 @@ async def run_to_end(graph: Any, state: Mapping[str, Any], *, context: Any,
     ``stream_mode="updates"`` does (no state snapshots in between), keeping the names of the
     last nodes that ran: a graph that reaches its recursion limit raises `EndlessLoop`
     naming them."""
+    # Imported here: the CLI's light paths (help, `prompts show`, user mistakes) reach this
+    # module through the runner and must not load LangGraph.
+    from langgraph.errors import GraphRecursionError
+
     ran: deque[str] = deque(maxlen=LAST_NODES)
     try:
         async for update in graph.astream(state, context=context, config=config,
