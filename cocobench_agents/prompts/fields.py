@@ -70,7 +70,9 @@ def field_problem(key: str, text: str, allowed: frozenset[str] | None = None) ->
     unknown = sorted(used - allowed)
     if unknown:
         known = ", ".join(sorted(allowed)) or "none"
-        return f"unknown field {{{unknown[0]}}} (fields of this template: {known})"
+        # repr for a name holding a newline or other control character: the error is one line
+        name = unknown[0] if unknown[0].isprintable() else repr(unknown[0])
+        return f"unknown field {{{name}}} (fields of this template: {known})"
     try:  # what parsing accepts but formatting rejects: `{n:q}`, `{goal!z}`
         text.format(**{name: _SAMPLE.get(name, "x") for name in allowed})
     except (ValueError, TypeError) as exc:
