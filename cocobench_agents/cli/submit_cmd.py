@@ -22,9 +22,12 @@ def pack_command(run: Path, out: Path) -> None:
     trajectory and kept prompts, and a manifest (the sha256 of every file, package and
     prompt-suite versions, the instance list and its hash, the settings that change what is
     sent or scored)."""
-    from cocobench_agents.verify import pack
+    from cocobench_agents.verify import BundleWriteError, pack
 
-    manifest = pack(run, out)
+    try:
+        manifest = pack(run, out)
+    except BundleWriteError as exc:  # a full or read-only disk: exit 1
+        raise click.ClickException(str(exc)) from None
     labels = manifest["non_reference"]
     click.echo(str(out))
     note = (f"; not the reference's settings: {', '.join(sorted(labels))}" if labels else "")

@@ -14,7 +14,7 @@ _EXPORTS = {
     "replay": ".replay", "verify_episode": ".replay",
     "RunVerification": ".run", "reference_configs": ".run", "verify_run": ".run",
     "verify_source": ".run",
-    "VerifyError": ".errors",
+    "VerifyError": ".errors", "BundleWriteError": ".errors",
     "open_bundle": ".bundle", "pack": ".bundle",
 }
 __all__ = sorted(_EXPORTS)

@@ -33,7 +33,7 @@ from benchmark_adapter.tasks import available_suites
 from benchmark_adapter.vocabulary import EMBEDDED
 from cocobench_agents.engine.request import iter_fields, kind
 from cocobench_agents.runfolder import PROMPTS_FILE, RESULTS, RUN_FILE, RunFolder, RunFolderError
-from cocobench_agents.verify.errors import VerifyError
+from cocobench_agents.verify.errors import BundleWriteError, VerifyError
 from cocobench_agents.version import __version__
 
 MANIFEST = "manifest.json"
@@ -60,7 +60,7 @@ def pack(run: str | Path, out: str | Path) -> dict[str, Any]:
     """Write the run folder `run` as the bundle `out` (new; a name ending ``.cocobench.tar.gz``)
     and return its manifest. `VerifyError` for a folder that is no finished run (a planned
     episode without its result line, a result line without its trajectory), or an `out`
-    that exists."""
+    that exists; `BundleWriteError` for a disk that cannot take it (nothing is left)."""
     folder, out = RunFolder(run), Path(out)
     if not out.name.endswith(SUFFIX):
         raise VerifyError(f"{out}: a bundle's name ends with {SUFFIX}")
@@ -184,9 +184,16 @@ def coverage_problems(record: Mapping[str, Any], latest: Mapping[Any, Mapping[st
 
 def _write_tar(folder: RunFolder, files: list[str], manifest: dict[str, Any],
                out: Path) -> None:
-    out.parent.mkdir(parents=True, exist_ok=True)
-    partial = out.with_name(f".{out.name}.partial")
+    """Write the bundle to a temporary file beside `out`, renamed to it once whole: a full
+    disk or a killed process never leaves a partial bundle under `out`'s name, and a failed
+    write leaves nothing. `BundleWriteError` for a file that cannot be written."""
+    partial: Path | None = None
     try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        handle, temp_name = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.",
+                                             suffix=".partial")
+        os.close(handle)
+        partial = Path(temp_name)
         with tarfile.open(partial, "w:gz", format=tarfile.PAX_FORMAT) as tar:
             data = json.dumps(manifest, indent=2, sort_keys=True).encode("utf-8")
             info = tarfile.TarInfo(MANIFEST)
@@ -198,10 +205,19 @@ def _write_tar(folder: RunFolder, files: list[str], manifest: dict[str, Any],
                 info.size, info.mtime, info.mode = path.stat().st_size, 0, 0o644
                 with open(path, "rb") as f:
                     tar.addfile(info, f)
+        partial.chmod(0o644)  # mkstemp's file is private; a bundle is for sharing
         os.replace(partial, out)
+    except OSError as exc:
+        _remove(partial)
+        raise BundleWriteError(f"cannot write {out}: {exc.strerror or exc}") from None
     except BaseException:
-        partial.unlink(missing_ok=True)
+        _remove(partial)
         raise
+
+
+def _remove(partial: Path | None) -> None:
+    if partial is not None:
+        partial.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager

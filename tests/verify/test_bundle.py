@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import io
 import json
+import resource
+import signal
+import subprocess
+import sys
 import tarfile
 from collections.abc import Callable
 from pathlib import Path
@@ -17,6 +21,7 @@ from hypothesis import strategies as st
 from cocobench_agents.cli import main
 from cocobench_agents.verify import bundle as bundle_module
 from cocobench_agents.verify import pack, verify_source
+from tests.readers.test_reader_faults import ROOT, _mount
 from tests.verify.conftest import lines, write_lines
 
 CopyRun = Callable[[], Path]
@@ -86,6 +91,47 @@ def test_pack_refuses_an_unfinished_run_and_an_existing_out(copy_run: CopyRun, t
     assert main(["submit", "pack", str(copy_run()), "--out", str(out)]) == 2
     assert "already exists" in capsys.readouterr().err
     assert main(["submit", "pack", str(copy_run()), "--out", str(tmp_path / "x.tgz")]) == 2
+
+
+def _pack_command(run: Path, out: Path) -> list[str]:
+    return [sys.executable, "-m", "cocobench_agents.cli", "submit", "pack", str(run), "--out",
+            str(out)]
+
+
+def _assert_one_line_and_nothing_left(done: subprocess.CompletedProcess, out: Path,
+                                      says: str) -> None:
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.startswith(f"Error: cannot write {out}: "), done.stderr
+    assert says in done.stderr and done.stderr.count("\n") == 1, done.stderr
+    assert list(out.parent.iterdir()) == []  # no bundle, no partial one
+
+
+def test_pack_on_a_real_full_disk_is_one_line_and_leaves_nothing(demo_run: Path,
+                                                                 tmp_path: Path) -> None:
+    """A tmpfs smaller than the bundle (some 38 kB); needs the right to mount."""
+    disk = tmp_path / "disk"
+    _mount(disk, "size=16k")
+    out = disk / "demo.cocobench.tar.gz"
+    try:
+        done = subprocess.run(_pack_command(demo_run, out), capture_output=True, text=True,
+                              cwd=ROOT, timeout=120)
+        _assert_one_line_and_nothing_left(done, out, "No space left on device")
+    finally:
+        subprocess.run(["umount", str(disk)], check=True)
+
+
+def test_pack_past_a_file_size_limit_is_one_line_and_leaves_nothing(demo_run: Path,
+                                                                    tmp_path: Path) -> None:
+    """A full disk as a file size limit makes it (EFBIG): runs where mounting is refused."""
+    def small_files() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # fail the write, not the process
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+
+    out = tmp_path / "bundles" / "demo.cocobench.tar.gz"
+    out.parent.mkdir()
+    done = subprocess.run(_pack_command(demo_run, out), capture_output=True, text=True,
+                          cwd=ROOT, timeout=120, preexec_fn=small_files)
+    _assert_one_line_and_nothing_left(done, out, "File too large")
 
 
 def rewritten(demo_bundle: Path, tmp_path: Path, edit: Callable[[dict[str, bytes]], None],
