@@ -28,10 +28,15 @@ def verify_command(runs: tuple[str, ...], tasks: tuple[Path, ...], jobs: int | N
     through the embedded simulator, compare each step with the recording and recompute every
     metric. Each episode is verified, mismatch (the first differing step and field) or
     unverifiable (why). Exit 0 only if every episode verifies, 1 otherwise."""
-    from cocobench_agents.verify import reference_configs, verify_source
+    from cocobench_agents.verify import VerifyStopped, reference_configs, verify_source
 
     reference = reference_configs(tasks)
-    outcomes = [verify_source(run, reference=reference, jobs=jobs) for run in runs]
+    outcomes = []
+    for run in runs:
+        try:
+            outcomes.append(verify_source(run, reference=reference, jobs=jobs))
+        except VerifyStopped as exc:  # nothing printed: a partial verdict is none
+            raise click.ClickException(f"{run}: {exc}") from None
     if as_json:
         click.echo(json.dumps([outcome.as_json() for outcome in outcomes], indent=2))
     else:

@@ -15,6 +15,7 @@ _EXPORTS = {
     "RunVerification": ".run", "reference_configs": ".run", "verify_run": ".run",
     "verify_source": ".run",
     "VerifyError": ".errors", "BundleWriteError": ".errors",
+    "VerifyStopped": ".errors",
     "open_bundle": ".bundle", "pack": ".bundle",
 }
 __all__ = sorted(_EXPORTS)

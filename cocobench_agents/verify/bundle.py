@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as dt
+import fcntl
 import hashlib
 import io
 import json
@@ -51,6 +52,10 @@ ALLOWED = re.compile(r"(?:run\.json|results\.jsonl|manifest\.json|episodes/(?:[A
 MAX_FILES = 200_000
 MAX_FILE_BYTES = 256 * 2**20
 MAX_TOTAL_BYTES = 16 * 2**30
+#: A bundle is unpacked into ``TMPDIR/cocobench-bundle-*/run``, beside the `LOCK` its
+#: process holds: a folder whose lock nobody holds was left by a killed one.
+TEMP_PREFIX = "cocobench-bundle-"
+LOCK = "lock"
 #: Settings the reference runs with: a bundle recorded otherwise is labelled with them.
 REFERENCE_SETTINGS: dict[str, Any] = {"max_steps": None, "stable_ids": False,
                                       "backend": EMBEDDED}
@@ -223,15 +228,42 @@ def _remove(partial: Path | None) -> None:
 @contextlib.contextmanager
 def open_bundle(path: str | Path) -> Iterator[tuple[Path, dict[str, Any]]]:
     """The bundle at `path` unpacked into a private temporary run folder (removed after),
-    and its manifest, every file checked against it; `VerifyError` naming what is wrong."""
-    root = Path(tempfile.mkdtemp(prefix="cocobench-bundle-"))
+    and its manifest, every file checked against it; `VerifyError` naming what is wrong.
+    The folders of bundles whose process was killed meanwhile are removed first."""
+    _reclaim_abandoned()
+    home = Path(tempfile.mkdtemp(prefix=TEMP_PREFIX))
     try:
-        names = _extract(Path(path), root)
-        manifest = _read_manifest(path, root)
-        _check_files(path, root, names, manifest)
-        yield root, manifest
+        with _held(home):
+            root = home / "run"
+            root.mkdir()
+            names = _extract(Path(path), root)
+            manifest = _read_manifest(path, root)
+            _check_files(path, root, names, manifest)
+            yield root, manifest
     finally:
-        shutil.rmtree(root, ignore_errors=True)
+        shutil.rmtree(home, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _held(home: Path) -> Iterator[None]:
+    """An exclusive `flock` on ``home/lock`` while the bundle is open (the kernel releases
+    it when its holder dies, even by SIGKILL; forked workers hold it with their parent)."""
+    handle, name = tempfile.mkstemp(dir=home)
+    with os.fdopen(handle, "wb") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        os.replace(name, home / LOCK)  # named once locked: an unlocked one is abandoned
+        yield
+
+
+def _reclaim_abandoned() -> None:
+    """Remove the temporary folders of bundles whose process is gone (an unheld lock)."""
+    for home in Path(tempfile.gettempdir()).glob(f"{TEMP_PREFIX}*"):
+        try:
+            with open(home / LOCK, "rb") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                shutil.rmtree(home, ignore_errors=True)
+        except OSError:  # no lock yet (being opened), held (in use), or another user's
+            continue
 
 
 def _extract(path: Path, root: Path) -> set[str]:

@@ -10,3 +10,8 @@ class VerifyError(ValueError):
 
 class BundleWriteError(RuntimeError):
     """A bundle or report that could not be written: a full or read-only disk (exit 1)."""
+
+
+class VerifyStopped(RuntimeError):
+    """A verification that ended before every episode was judged (a worker killed): no
+    verdict (exit 1)."""

@@ -11,6 +11,7 @@ import time
 from collections import Counter
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,7 @@ from benchmark_adapter.tasks import available_suites, load_tasks
 from cocobench_agents.harness.workers import available_cores
 from cocobench_agents.runfolder import EpisodeKey, RunFolder, RunFolderError, result_key
 from cocobench_agents.verify.bundle import bundle_problems, open_bundle, settings_labels
-from cocobench_agents.verify.errors import VerifyError
+from cocobench_agents.verify.errors import VerifyError, VerifyStopped
 from cocobench_agents.verify.replay import Verdict, verify_episode
 
 #: Episodes one worker process takes at a time (few enough to keep both cores busy to the
@@ -82,7 +83,8 @@ def verify_run(path: str | Path, *, reference: Mapping[str, Mapping[str, Any]] |
                jobs: int | None = None) -> RunVerification:
     """Replay every episode of the run folder at `path` (`RunFolderError` when it is not
     one); `reference`: the configs reference instances must carry (default: the built-in
-    suites'); `jobs`: processes (default: the cores this process may use)."""
+    suites'); `jobs`: processes (default: the cores this process may use). `VerifyStopped`
+    when a worker process dies before its episodes are judged."""
     started = time.perf_counter()
     folder = RunFolder(path)
     record = folder.run_record()
@@ -106,8 +108,12 @@ def verify_run(path: str | Path, *, reference: Mapping[str, Mapping[str, Any]] |
         context = multiprocessing.get_context("fork" if "fork" in
                                               multiprocessing.get_all_start_methods()
                                               else "spawn")
-        with ProcessPoolExecutor(jobs, mp_context=context) as pool:
-            results = list(pool.map(verify_lines, *zip(*tasks)))
+        try:
+            with ProcessPoolExecutor(jobs, mp_context=context) as pool:
+                results = list(pool.map(verify_lines, *zip(*tasks)))
+        except BrokenProcessPool:  # a worker killed (SIGKILL, out of memory): judged nothing
+            raise VerifyStopped("verify stopped: a worker process ended abruptly (killed, or "
+                                "out of memory); no verdict: run it again") from None
     outcome.verdicts = [pair for result in results for pair in result]
     outcome.elapsed_s = time.perf_counter() - started
     return outcome

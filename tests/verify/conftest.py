@@ -62,3 +62,15 @@ def write_trajectory(run: Path, line: dict[str, Any], document: dict[str, Any]) 
 def prompts(run: Path, line: dict[str, Any]) -> dict[str, str]:
     path = (run / line["trajectory"]).parent / "prompts.json.gz"
     return json.loads(gzip.decompress(path.read_bytes()))
+
+
+@pytest.fixture(scope="session")
+def many_episodes_bundle(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A bundle of 128 episodes (greedy, the demo suite × `CONDITIONS` × 16 epochs): as many
+    as `verify` replays in parallel processes."""
+    home = tmp_path_factory.mktemp("many")
+    assert main(["run", "--suite", "demo", "--model", "greedy", "--conditions", CONDITIONS,
+                 "--epochs", "16", "--max-steps", "10", "--out", str(home / "run")]) == 0
+    assert main(["submit", "pack", str(home / "run"), "--out",
+                 str(home / "many.cocobench.tar.gz")]) == 0
+    return home / "many.cocobench.tar.gz"
