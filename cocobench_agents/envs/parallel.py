@@ -16,6 +16,7 @@ from pettingzoo.utils.conversions import parallel_to_aec
 from benchmark_adapter.menu_bound import largest_action_id
 from benchmark_adapter.tasks import TaskConfig
 from benchmark_adapter.vocabulary import IMAGE
+from cocobench_agents.envs.features import NumericLayout, WorldFeatures, check_observation
 from cocobench_agents.envs.rewards import reward_weights, step_reward
 from cocobench_agents.envs.seated import (
     DONE,
@@ -66,17 +67,22 @@ class CoCoBenchParallelEnv(ParallelEnv):
                  max_menu: int | None = None, model: str = DEFAULT_MODEL_NAME,
                  partners: Mapping[str, str] | None = None, off_menu: str = "score",
                  model_settings: ModelSettings | Mapping[str, Any] | None = None,
-                 render_mode: str | None = None) -> None:
+                 render_mode: str | None = None, observation: str = "text") -> None:
         check_off_menu(off_menu)
         check_seed(seed)
         check_max_steps(max_steps)
         check_render_mode(render_mode)
+        check_observation(observation)
+        check_flag("text", text)
         self.condition = one_condition(condition)
         self.configs = instances(source, task_id)
         self.weights = reward_weights(reward)
         self.prompt_suite, self.text, self.max_steps = prompt_suite, text, max_steps
         self.model, self.off_menu = model, off_menu
         self._max_menu = checked_max_menu(self.configs, max_menu)
+        #: The numeric tables' maker under ``observation="numeric"`` (`features.py`).
+        self.numeric = (WorldFeatures(NumericLayout.of(self.configs, self._max_menu))
+                        if observation == "numeric" else None)
         self.pool = ModelPool(partner_settings(model_settings))
         #: The one event loop the episodes' partner calls run on (made with the first episode).
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -189,7 +195,8 @@ class CoCoBenchParallelEnv(ParallelEnv):
         robots = max(len(c.agent_ids) for c in self.configs)
         self._spaces = {seat: SeatSpaces(
             seat, max_menu=self._max_menu, broadcasts=planner.broadcast,
-            image_shape=self._image_shape(seat, robots)) for seat in self.learning}
+            image_shape=self._image_shape(seat, robots), numeric=self.numeric)
+            for seat in self.learning}
 
     # -- internals ---------------------------------------------------------------------
 
@@ -216,7 +223,7 @@ class CoCoBenchParallelEnv(ParallelEnv):
         episode = self._live()
         image = episode.spec.obs_mode == IMAGE
         return {s: self._seat_spaces(s).encode(episode.view(s),
-                                               self._frames(s) if image else None)
+                                               self._frames(s) if image else None, episode)
                 for s in self.agents}
 
     def _frames(self, seat: str) -> list[np.ndarray]:
@@ -271,7 +278,9 @@ class CoCoBenchParallelEnv(ParallelEnv):
                                prompt_suite=self.prompt_suite, max_steps=self.max_steps)
             partners = {s: c for s, c in self.partners.items()
                         if s in _seats_of(config, self.condition.planner)}
-            episode = SeatedEpisode(spec, partners=partners, pool=self.pool, text=self.text,
+            # (The numeric observation holds no prompt: none is copied into the views.)
+            episode = SeatedEpisode(spec, partners=partners, pool=self.pool,
+                                    text=self.text and self.numeric is None,
                                     off_menu=self.off_menu, loop=self.loop)
         self._episodes[config.task_id] = episode  # the most recently played, last
         if len(self._episodes) > KEPT_EPISODES:
@@ -307,6 +316,12 @@ def check_max_steps(max_steps: Any) -> None:
             or max_steps < 1:
         raise EnvError(f"max_steps must be a positive integer (or None: the instance's step "
                        f"budget), not {max_steps!r}")
+
+
+def check_flag(name: str, value: Any) -> None:
+    """A yes/no option is a bool (a string such as "no" would read as yes)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise EnvError(f"{name} must be True or False, not {value!r}")
 
 
 def check_render_mode(render_mode: Any) -> None:
@@ -361,6 +376,9 @@ def checked_max_menu(configs: list[TaskConfig], max_menu: int | None) -> int:
     largest = {c.task_id: largest_action_id(c) for c in configs}
     if max_menu is None:
         return max(largest.values())
+    if isinstance(max_menu, (bool, np.bool_)) or not isinstance(max_menu, (int, np.integer)):
+        raise EnvError(f"max_menu must be an integer (or None: the largest menu id the "
+                       f"source's instances can show), not {max_menu!r}")
     over = {task: n for task, n in largest.items() if n > max_menu}
     if over:
         task = max(over, key=over.__getitem__)
@@ -433,6 +451,8 @@ def parallel_env(source: str, *, condition: str, task_id: str | None = None,
     the source's instances can show), ``model`` (the name the
     seats' decisions record), ``partners`` (seat → model spec: seats played by a model),
     ``off_menu`` ("error", or "score": an id off the menu scored as a model's invalid id),
+    ``observation`` ("text": the prompt and menu lines; "numeric": fixed-size tables of the
+    objects, menu entries and goal, `features.py`),
     ``model_settings`` (how the partners' models are called: `ModelSettings` or a mapping of
     its fields; default: the ``COCOBENCH_RUN_*`` variables', as for `cocobench run`)."""
     return CoCoBenchParallelEnv(source, condition=condition, task_id=task_id,

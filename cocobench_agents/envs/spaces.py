@@ -6,11 +6,13 @@ robots and leader) acts with ``{"action": id, "message": text}`` (`SeatActionSpa
 element of the action space is a valid action: an id off the menu is scored as a model's
 invalid id, and a message where none is read now is not read (``off_menu="error"`` raises
 instead). The observation is a dict: ``prompt`` (the harness's prompt text), ``menu`` (its
-menu lines), ``action_mask`` (a numpy int8 array, PettingZoo's convention: entry 0 for DONE,
-entry ``id + 1`` for each id on the menu, the mask ``Discrete(…, start=-1)`` samples with;
-`SeatActionSpace.sample` takes it too), for a broadcasting seat ``sends_message`` (1 when a
-message is read from it now), and under image conditions ``frame``: the seat's camera frame as
-an RGB array (the team's seat and the leader: every robot's frame, ``(robots, H, W, 3)``).
+menu lines) — or under ``observation="numeric"`` the tables of `features.py` (``objects``,
+``entries``, ``goal``, ``context``) in their place —, ``action_mask`` (a numpy int8 array,
+PettingZoo's convention: entry 0 for DONE, entry ``id + 1`` for each id on the menu, the
+mask ``Discrete(…, start=-1)`` samples with; `SeatActionSpace.sample` takes it too), for a
+broadcasting seat ``sends_message`` (1 when a message is read from it now), and under image
+conditions ``frame``: the seat's camera frame as an RGB array (the team's seat and the
+leader: every robot's frame, ``(robots, H, W, 3)``).
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector.utils import shared_memory
 
-from cocobench_agents.envs.seated import DONE, EnvError, SeatAction, SeatView
+from cocobench_agents.envs.features import WorldFeatures
+from cocobench_agents.envs.seated import DONE, EnvError, SeatAction, SeatedEpisode, SeatView
 from cocobench_agents.graphs.registry import LEADER_SEAT, TEAM_SEAT
 from cocobench_agents.prompts.parse import MESSAGE_LIMIT
 
@@ -110,15 +113,17 @@ class SeatSpaces:
     """The spaces of one seat and the encoding of its views."""
 
     def __init__(self, seat: str, *, max_menu: int, broadcasts: bool,
-                 image_shape: tuple[int, ...] | None) -> None:
+                 image_shape: tuple[int, ...] | None,
+                 numeric: WorldFeatures | None = None) -> None:
         self.seat, self.max_menu, self.broadcasts = seat, max_menu, broadcasts
-        self.image_shape = image_shape
+        self.image_shape, self.numeric = image_shape, numeric
         size = max_menu + 2  # DONE, then ids 0..max_menu
         choice = spaces.Discrete(size, start=DONE)
         self.message_limit = LEADER_LIMIT if seat == LEADER_SEAT else MESSAGE_LIMIT
-        fields: dict[str, spaces.Space] = {"prompt": AnyText(TEXT_LIMIT),
-                                           "menu": AnyText(TEXT_LIMIT),
-                                           "action_mask": spaces.MultiBinary(size)}
+        fields: dict[str, spaces.Space] = (
+            numeric.layout.fields() if numeric is not None
+            else {"prompt": AnyText(TEXT_LIMIT), "menu": AnyText(TEXT_LIMIT)})
+        fields["action_mask"] = spaces.MultiBinary(size)
         if broadcasts:
             self.action: spaces.Space = SeatActionSpace(
                 {"action": choice, "message": AnyText(self.message_limit)})
@@ -129,9 +134,10 @@ class SeatSpaces:
             fields["frame"] = spaces.Box(0, 255, image_shape, np.uint8)
         self.observation = spaces.Dict(fields)
 
-    def encode(self, view: SeatView, frames: list[np.ndarray] | None) -> dict[str, Any]:
+    def encode(self, view: SeatView, frames: list[np.ndarray] | None,
+               episode: SeatedEpisode | None = None) -> dict[str, Any]:
         """`view` as an observation of these spaces (`frames`: the robots' RGB frames under
-        image conditions)."""
+        image conditions; `episode`: the live episode, which the numeric tables read)."""
         ids = np.zeros(self.max_menu + 2, np.int8)
         ids[0] = 1  # DONE
         for option in view.menu:
@@ -140,8 +146,10 @@ class SeatSpaces:
                                f"max_menu={self.max_menu}: build the environment with a "
                                "larger max_menu")
             ids[option.action_id - DONE] = 1
-        obs: dict[str, Any] = {"prompt": view.prompt, "menu": "\n".join(view.menu_lines),
-                               "action_mask": ids}
+        obs: dict[str, Any] = (
+            self.numeric.encode(episode, self.seat, view.menu) if self.numeric is not None
+            else {"prompt": view.prompt, "menu": "\n".join(view.menu_lines)})
+        obs["action_mask"] = ids
         if self.broadcasts:
             obs["sends_message"] = np.int64(view.acting and view.sends_message)
         if self.image_shape is not None:

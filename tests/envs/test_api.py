@@ -437,6 +437,10 @@ def test_an_unknown_reset_option_is_warned_about_not_dropped_silently():
     ({"partners": {"agent_9": "greedy"}}, "partners name no seat 'agent_9': the seats under "
                                           "D0_blind are agent_1, agent_2"),
     ({"render_mode": "human"}, "render_mode must be 'ansi' or 'rgb_array' .*not 'human'"),
+    ({"text": "no"}, "text must be True or False, not 'no'"),
+    ({"max_menu": "300"}, r"max_menu must be an integer \(or None: .*\), not '300'"),
+    ({"reward": {"progress": "1"}}, "the weight of reward 'progress' must be a number, not '1'"),
+    ({"observation": "pixels"}, "observation must be 'text' or 'numeric', not 'pixels'"),
 ])
 def test_bad_options_are_told(options, error):
     from cocobench_agents.envs import EnvError, parallel_env
@@ -461,6 +465,12 @@ def test_a_message_over_its_limit_is_refused_not_cut():
     environment.step({"agent_1": {"action": -1, "message": "y" * 200}, "agent_2": -1})
     sent = [d for d in environment.episode.tools.decisions if d.get("message")]
     assert sent[-1]["message"] == "y" * 200
+    led = parallel_env(TASKS, condition="LW_blind", task_id=REAL)
+    led.reset()
+    with pytest.raises(EnvError, match="the message of seat 'leader' is 4001 characters: the "
+                                       "limit is 4000"):
+        led.step({"leader": {"action": -1, "message": "x" * 4001}, "agent_1": -1,
+                  "agent_2": -1})
 
 
 def test_render_modes():

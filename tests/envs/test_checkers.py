@@ -3,7 +3,8 @@ condition, blind and image: Gymnasium's `check_env` (through `gymnasium.make`, s
 modes are checked too), PettingZoo's `parallel_api_test`, `api_test`, `parallel_seed_test`
 and `seed_test`, and Gymnasium's `SyncVectorEnv` and `AsyncVectorEnv` (default shared
 memory). They sample the action spaces unmasked, as RL libraries explore: every element of an
-action space is a valid action."""
+action space is a valid action. The same for a plugin planner (claim-board, installed from
+examples/claim-board with an entry point) and for the numeric observation."""
 
 from __future__ import annotations
 
@@ -16,21 +17,27 @@ pytestmark = [pytest.mark.needs_env, pytest.mark.slow, pytest.mark.usefixtures("
 
 TASKS = str(SHARED_TASKS)
 REAL = "A_D1__FloorPlan1__seed0"  # agents agent_1, agent_2
-CONDITIONS = [f"{code}_{mode}" for mode in ("blind", "image") for code in ("C0", "D0", "D1", "LW")]
+CONDITIONS = [f"{code}_{mode}" for mode in ("blind", "image")
+              for code in ("C0", "D0", "D1", "LW", "CL")]
 #: The learning seat `check_env` and the vector environments play, per planner code.
-SEATS = {"C0": "team", "D0": "agent_1", "D1": "agent_2", "LW": "agent_1"}
+SEATS = {"C0": "team", "D0": "agent_1", "D1": "agent_2", "LW": "agent_1", "CL": "agent_1"}
 
 
+@pytest.mark.parametrize("observation", ["text", "numeric"])
 @pytest.mark.parametrize("condition", CONDITIONS)
-def test_every_checker_passes_with_the_defaults(condition):
+def test_every_checker_passes_with_the_defaults(condition, observation):
     import gymnasium
     from gymnasium.utils.env_checker import check_env
     from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
 
     from cocobench_agents.envs import SEAT_ENV_ID, env, parallel_env
 
+    if condition.startswith("CL"):
+        claim_board()
     cycles = 10 if condition.endswith("image") else 40  # (an image step draws frames)
     settings = {"source": TASKS, "condition": condition, "task_id": REAL}
+    if observation != "text":  # (the default is left unnamed: the defaults are checked)
+        settings["observation"] = observation
     seats = [SEATS[condition[:2]], *(["leader"] if condition.startswith("LW") else [])]
     for seat in seats:
         # No render mode (the default): check_env makes every declared one through the spec.
@@ -47,9 +54,18 @@ def test_every_checker_passes_with_the_defaults(condition):
                                                 settings)
 
 
-def play_vector(vector_class, condition: str, settings: dict) -> list[tuple[str, ...]]:
-    """The prompts of a few steps of two seat environments under `vector_class`, played
-    with seeded unmasked samples."""
+def claim_board() -> None:
+    """Skip where claim-board's example package is not installed."""
+    from cocobench_agents.graphs import find_planner
+
+    if find_planner("CL") is None:
+        pytest.skip("examples/claim-board is not installed (pip install -e examples/claim-board)")
+
+
+def play_vector(vector_class, condition: str, settings: dict) -> list[tuple]:
+    """What the two seat environments under `vector_class` observe over a few steps (their
+    prompts; under the numeric observation, their object and goal tables), played with
+    seeded unmasked samples."""
     import gymnasium
 
     from cocobench_agents.envs import SEAT_ENV_ID
@@ -63,11 +79,19 @@ def play_vector(vector_class, condition: str, settings: dict) -> list[tuple[str,
         vector.action_space.seed(0)
         observations, _ = vector.reset(seed=[1, 2])
         assert observations["action_mask"].dtype == np.int8
-        prompts = [tuple(observations["prompt"])]
+        seen = [seen_by(observations)]
         for _ in range(3):
             observations, rewards, *_ = vector.step(vector.action_space.sample())
             assert rewards.shape == (2,)
-            prompts.append(tuple(observations["prompt"]))
-        return prompts
+            seen.append(seen_by(observations))
+        return seen
     finally:
         vector.close()
+
+
+def seen_by(observations: dict) -> tuple:
+    """Each environment's prompt, or its object and goal tables as bytes."""
+    if "prompt" in observations:
+        return tuple(observations["prompt"])
+    return tuple(observations["objects"][i].tobytes() + observations["goal"][i].tobytes()
+                 for i in range(len(observations["objects"])))
