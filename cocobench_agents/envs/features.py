@@ -44,6 +44,8 @@ STATE_FLAGS = ("visible", "isOpen", "isToggled", "isSliced", "isDirty", "isFille
                "isCooked", "isBroken", "isPickedUp")
 #: An object's affordance flags.
 AFFORDANCES = affordances.FLAGS
+#: How many menus' entry tables an episode keeps (cleared when full).
+MENU_TABLES = 64
 #: The columns of the tables, in order (docs/environments.md says what each holds).
 OBJECT_COLUMNS = ("present", "type", "x", "y", "z", *STATE_FLAGS, "held_by", "inside",
                   "in_goal", *AFFORDANCES)
@@ -112,12 +114,13 @@ class WorldFeatures:
         self.layout = layout
         self._tools: object = None  # the episode's tools: made afresh by each reset
         self._slots: dict[str, int] = {}
+        self._tables: dict[int, tuple[Sequence[MenuOption], np.ndarray]] = {}  # by menu
         self._shared: tuple[object, int, dict[str, np.ndarray]] | None = None
 
     def shared(self, episode: SeatedEpisode) -> dict[str, np.ndarray]:
         """The object and goal tables now (the same for every seat; made once a step)."""
         if self._tools is not episode.tools:
-            self._tools, self._slots = episode.tools, {}
+            self._tools, self._slots, self._tables = episode.tools, {}, {}
         key = len(episode.episode.items)
         if self._shared is None or self._shared[0] is not self._tools \
                 or self._shared[1] != key:
@@ -163,17 +166,19 @@ class WorldFeatures:
                   for oid in held}
         in_goal = {oid for _, args in world.goals.goals
                    for oid in (args.obj, args.receptacle, args.source) if oid}
-        table = np.zeros((self.layout.objects, len(OBJECT_COLUMNS)), np.float32)
+        rows = []
         for obj in objects:
             oid = obj["objectId"]
             position = obj.get("position") or {}
-            parents = obj.get("parentReceptacles") or []
-            table[self._slots[oid]] = [
-                1.0, _type_id(obj.get("objectType", "")),
-                position.get("x", 0.0), position.get("y", 0.0), position.get("z", 0.0),
-                *(bool(obj.get(f)) for f in STATE_FLAGS),
-                holder.get(oid, 0), self._ref(parents[0] if parents else None),
-                oid in in_goal, *(bool(obj.get(f)) for f in AFFORDANCES)]
+            parents = obj.get("parentReceptacles")
+            rows.append([1.0, _type_id(obj.get("objectType", "")), position.get("x", 0.0),
+                         position.get("y", 0.0), position.get("z", 0.0),
+                         *[obj.get(f) or 0 for f in STATE_FLAGS], holder.get(oid, 0),
+                         self._ref(parents[0] if parents else None), oid in in_goal,
+                         *[obj.get(f) or 0 for f in AFFORDANCES]])
+        table = np.zeros((self.layout.objects, len(OBJECT_COLUMNS)), np.float32)
+        if rows:  # (one conversion: row by row was most of an observation's time)
+            table[[self._slots[o["objectId"]] for o in objects]] = np.array(rows, np.float32)
         return table
 
     def _goal(self, episode: SeatedEpisode) -> np.ndarray:
@@ -191,30 +196,41 @@ class WorldFeatures:
         return table
 
     def _entries(self, episode: SeatedEpisode, menu: Sequence[MenuOption]) -> np.ndarray:
+        # A seat's menu is the same object until it changes (`EpisodeTools`' menu views), and
+        # its table depends on nothing else once its objects have slots: made once per menu.
+        made = self._tables.get(id(menu))
+        if made is None or made[0] is not menu:
+            if len(self._tables) >= MENU_TABLES:
+                self._tables.clear()
+            made = self._tables[id(menu)] = (menu, self._entry_table(episode, menu))
+        return made[1].copy()
+
+    def _entry_table(self, episode: SeatedEpisode, menu: Sequence[MenuOption]) -> np.ndarray:
         table = np.zeros((self.layout.entries, len(ENTRY_COLUMNS)), np.float32)
         if not menu:
             return table
-        table[0, 0] = 1.0  # DONE
         snapshot = episode.tools.snapshot
         by_call = {e.call: e for e in snapshot.action_menu} if snapshot is not None else {}
         agents = episode.spec.config.agent_ids
-        for option in menu:
-            row = table[option.action_id - DONE]
-            row[0] = 1.0
+        rows = [option.action_id - DONE for option in menu]
+        table[[0, *rows], 0] = 1.0  # DONE, and each id on the menu
+        for row, option in zip(rows, menu):
             entry = by_call.get(option.call)
             if entry is None:  # a planner's own menu entry (not a skill call): its id only
                 continue
             objects = [a for a in entry.args if a in self._slots]
             direction = next((a for a in entry.args if a in EXPLORE_DIRECTIONS), None)
-            row[1:] = [SKILL_NAMES.index(entry.skill) + 1 if entry.skill in SKILL_NAMES else 0,
-                       agents.index(entry.agent) + 1 if entry.agent in agents else 0,
-                       self._ref(objects[0] if objects else None),
-                       self._ref(objects[1] if len(objects) > 1 else None),
-                       EXPLORE_DIRECTIONS.index(direction) + 1 if direction else 0]
+            table[row, 1:] = (
+                _SKILL_IDS.get(entry.skill, 0),
+                agents.index(entry.agent) + 1 if entry.agent in agents else 0,
+                self._ref(objects[0] if objects else None),
+                self._ref(objects[1] if len(objects) > 1 else None),
+                EXPLORE_DIRECTIONS.index(direction) + 1 if direction else 0)
         return table
 
 
 _TYPE_IDS = {t: i + 1 for i, t in enumerate(OBJECT_TYPES)}
+_SKILL_IDS = {s: i + 1 for i, s in enumerate(SKILL_NAMES)}
 
 
 def _type_id(object_type: str) -> int:

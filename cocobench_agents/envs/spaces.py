@@ -162,7 +162,9 @@ class SeatSpaces:
             for i, array in enumerate(frames):
                 out[i] = array
             return out
-        return frames[0] if frames else np.zeros(self.image_shape, np.uint8)
+        # A copy: the episode keeps its frame for the step (and a reset to the same state
+        # finds it again), and each observation must own its data (Gymnasium's check_env).
+        return frames[0].copy() if frames else np.zeros(self.image_shape, np.uint8)
 
     def decode(self, action: Any) -> SeatAction:
         """An action of this seat's space (an id, or for a broadcasting seat a dict with
