@@ -94,11 +94,9 @@ class EmbeddedController:
     def frame_rgb(self, agent: int, width: int = 300, height: int = 300) -> Any:
         """The pixels of `frame` as an RGB array (height, width, 3), no PNG encoded: what
         an environment's observation holds."""
-        import numpy
+        from benchmark_adapter.sim.embedded.render import agent_view_pixels
 
-        from benchmark_adapter.sim.embedded.render import draw_agent_view
-
-        return numpy.asarray(draw_agent_view(self._view(agent), width, height))
+        return agent_view_pixels(self._view(agent), width, height)
 
     def _view(self, agent: int) -> dict[str, Any]:
         """What the renderer draws for agent `agent`: its pose, objects and the others."""
