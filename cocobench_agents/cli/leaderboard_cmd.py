@@ -22,10 +22,13 @@ def leaderboard_command(sources: tuple[str, ...], out: Path, tasks: tuple[Path, 
     model × scaffold × condition with SR, CS and CS_D1–D4 (clustered intervals), pass^k,
     legal plan, tokens and dollars per episode and a verification badge; only verified rows
     of the reference's settings are ranked. Each row links to its episodes' pages."""
-    from cocobench_agents.leaderboard import build_leaderboard
-    from cocobench_agents.verify import reference_configs
+    from cocobench_agents.leaderboard import SiteWriteError, build_leaderboard
+    from cocobench_agents.verify import VerifyStopped, reference_configs
 
-    board = build_leaderboard(sources, out, reference=reference_configs(tasks), jobs=jobs)
+    try:
+        board = build_leaderboard(sources, out, reference=reference_configs(tasks), jobs=jobs)
+    except (SiteWriteError, VerifyStopped) as exc:  # a full disk, a killed worker: exit 1
+        raise click.ClickException(str(exc)) from None
     for outcome in board.verifications:
         state = "verified" if outcome.ok else "NOT verified (its rows are not ranked)"
         click.echo(f"{outcome.path}: {state}", err=True)

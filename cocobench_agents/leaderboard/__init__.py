@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from cocobench_agents.lazy import lazy_getattr
 
-_EXPORTS = {"Leaderboard": ".build", "build_leaderboard": ".build", "Row": ".rows"}
+_EXPORTS = {"Leaderboard": ".build", "build_leaderboard": ".build", "Row": ".rows",
+            "SiteWriteError": ".build"}
 __all__ = sorted(_EXPORTS)
 
 __getattr__ = lazy_getattr(__name__, _EXPORTS)
