@@ -72,11 +72,7 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
         raise click.UsageError("--power-baseline and --detect go with --dry-run")
     request = _request(options, config_file, resume)
     if print_config:
-        import yaml
-
-        from cocobench_agents.engine.config import request_as_config
-
-        click.echo(yaml.safe_dump(request_as_config(request), sort_keys=False), nl=False)
+        _print_config(request)
         return
     if dry_run:
         _dry_run(request, as_json, resume, power_baseline, detect)
@@ -101,6 +97,25 @@ def run_command(config_file: Path | None, resume: bool, retry_errors: bool,
     if results.errors or results.planner_errors:
         raise RunHadErrors(results.folder, results.errors, runaway_causes(results),
                            results.planner_errors)
+
+
+def _print_config(request: RunRequest) -> None:
+    """Print the request as a config file, its secrets redacted as run.json records them
+    (`ModelSettings.to_record`: the values of secret-looking ``--extra`` keys, the
+    ``user:password@`` of ``--api-base``), and any of them, or the key ``--api-key-env``
+    names, found in another field."""
+    import yaml
+
+    from cocobench_agents.engine.config import request_as_config
+    from cocobench_agents.models.secrets import REDACTED, redact_obj
+
+    settings = request.model_settings
+    config = {**request_as_config(request), "model_settings": settings.to_record()}
+    text = yaml.safe_dump(redact_obj(config, settings.secrets()), sort_keys=False)
+    click.echo(text, nl=False)
+    if REDACTED in text:
+        click.echo(f"note: secrets are printed as {REDACTED}: give them again to run with "
+                   "this config (a key: its variable's name with --api-key-env)", err=True)
 
 
 def _request(options: dict[str, Any], config_file: Path | None, resume: bool) -> RunRequest:
