@@ -149,3 +149,33 @@ def test_merge_three_agents():
     assert strip.crop((8, 7, 60, 22)).convert("L").getextrema()[0] < 100
     # Frames are pasted in order below the strip.
     assert merged.crop((300, 28, 600, 328)).tobytes() == _img(frames[1][1]).tobytes()
+
+
+def test_the_kept_labels_font_draws_as_freetype_does():
+    """The renderer's font keeps each label it rasterised and measured (a frame drew each
+    label afresh, three quarters of its time): what it gives back, first call or kept, is
+    FreeType's own result for those arguments, at every sub-pixel start a label is drawn at."""
+    import random
+
+    from PIL import ImageDraw, ImageFont
+
+    from benchmark_adapter.sim.embedded.render import _font
+
+    kept, plain = _font(), ImageFont.load_default(size=12)
+    rng = random.Random(7)
+    for text in ("Fridge (closed)", "Apple", "holding: Knife, Mug", "agent_2"):
+        assert kept.getbbox(text) == plain.getbbox(text)
+        for _ in range(40):
+            start = (rng.choice([0.0, 0.5, rng.random()]), rng.choice([0.0, rng.random()]))
+            for _ in range(2):  # drawn, then kept
+                mask, offset = kept.getmask2(text, "L", anchor="lt", start=start)
+                expected, expected_offset = plain.getmask2(text, "L", anchor="lt", start=start)
+                assert (bytes(mask), mask.size, offset) == \
+                    (bytes(expected), expected.size, expected_offset)
+    pictures = []
+    for font in (kept, plain, kept):
+        picture = Image.new("RGB", (120, 40), (255, 255, 255))
+        ImageDraw.Draw(picture).text((3.3, 2.71), "Fridge (open)", fill=(0, 0, 0), font=font,
+                                     anchor="lt")
+        pictures.append(picture.tobytes())
+    assert pictures[0] == pictures[1] == pictures[2]
