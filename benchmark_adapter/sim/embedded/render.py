@@ -69,34 +69,42 @@ class _KeptLabelsFont(ImageFont.FreeTypeFont):
     the pixels are those of an uncached font."""
 
     def getbbox(self, text, *args, **kwargs):
-        return _kept_bbox(self, text, args, tuple(sorted(kwargs.items())))
+        return _kept(_boxes, _key(text, args, kwargs),
+                     lambda: super(_KeptLabelsFont, self).getbbox(text, *args, **kwargs))
 
     def getmask2(self, text, *args, **kwargs):
         # A mask is only read (ImageDraw.draw_bitmap pastes it), so one object can serve.
-        return _kept_mask(self, text, _hashable(args), _hashable(tuple(sorted(kwargs.items()))))
-
-    def _measure(self, text, args, kwargs):
-        return super().getbbox(text, *args, **dict(kwargs))
-
-    def _rasterise(self, text, args, kwargs):
-        return super().getmask2(text, *args, **dict(kwargs))
+        return _kept(_masks, _key(text, args, kwargs),
+                     lambda: super(_KeptLabelsFont, self).getmask2(text, *args, **kwargs))
 
 
-def _hashable(value):
-    """`value` with its lists (e.g. OpenType features) as tuples, so it can be a cache key."""
-    if isinstance(value, (list, tuple)):
-        return tuple(_hashable(v) for v in value)
+_boxes: OrderedDict[tuple, Any] = OrderedDict()
+_masks: OrderedDict[tuple, Any] = OrderedDict()
+_labels_lock = threading.Lock()
+
+
+def _key(text, args: tuple, kwargs: dict) -> tuple:
+    """Every argument of a font call as a cache key (a list, e.g. OpenType features, as a
+    tuple; the rest are Pillow's scalars and the start's tuple)."""
+    def hashable(value):
+        return tuple(value) if isinstance(value, list) else value
+    return (text, tuple(map(hashable, args)),
+            tuple((name, hashable(value)) for name, value in sorted(kwargs.items())))
+
+
+def _kept(cache: OrderedDict, key: tuple, make) -> Any:
+    """`cache[key]`, made by `make()` when missing; the least recently used dropped past
+    `GLYPHS_KEPT`."""
+    with _labels_lock:
+        if key in cache:
+            cache.move_to_end(key)
+            return cache[key]
+    value = make()
+    with _labels_lock:
+        cache[key] = value
+        while len(cache) > GLYPHS_KEPT:
+            cache.popitem(last=False)
     return value
-
-
-@functools.lru_cache(maxsize=GLYPHS_KEPT)
-def _kept_bbox(font: _KeptLabelsFont, text, args, kwargs):
-    return font._measure(text, args, kwargs)
-
-
-@functools.lru_cache(maxsize=GLYPHS_KEPT)
-def _kept_mask(font: _KeptLabelsFont, text, args, kwargs):
-    return font._rasterise(text, args, kwargs)
 
 
 def type_colour(object_type: str) -> tuple[int, int, int]:
