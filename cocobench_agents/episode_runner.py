@@ -18,11 +18,13 @@ from cocobench_agents.graphs import (
     DEFAULT_PLANNER,
     PlannerContext,
     compiled_graph,
+    planner_rounds,
     planner_spec,
 )
 from cocobench_agents.graphs.node_errors import (
     NodeFailure,
     PlannerNodeError,
+    is_strategy_code,
     node_failure,
     run_to_end,
 )
@@ -200,9 +202,19 @@ def initial_state(spec: EpisodeSpec) -> dict[str, Any]:
 
 
 async def _invoke(spec: EpisodeSpec, context: PlannerContext) -> None:
-    # A graph that never ends raises `EndlessLoop`, naming its last nodes.
+    """Play the planner: its declared rounds awaited directly (`rounds.play_rounds`), else
+    its graph through LangGraph. Either way a planner that never ends raises `EndlessLoop`,
+    naming its last nodes, after as many supersteps as LangGraph's recursion limit allows
+    (each landed step takes a few)."""
+    limit = 6 * spec.budget + 50
+    rounds = planner_rounds(spec.planner)
+    if rounds is not None:
+        from cocobench_agents.graphs.rounds import play_rounds
+
+        await play_rounds(rounds, initial_state(spec), context, limit=limit,
+                          checked=is_strategy_code(planner_spec(spec.planner).name))
+        return
     await run_to_end(
         compiled_graph(spec.planner), initial_state(spec), context=context,
-        # A fresh thread per episode; each landed step takes a few supersteps.
-        config={"recursion_limit": 6 * spec.budget + 50,
-                "configurable": {"thread_id": uuid.uuid4().hex}})
+        # A fresh thread per episode.
+        config={"recursion_limit": limit, "configurable": {"thread_id": uuid.uuid4().hex}})

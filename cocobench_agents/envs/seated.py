@@ -1,13 +1,15 @@
 """`SeatedEpisode`: one benchmark episode whose seats act through `step` instead of a model.
 
-It plays the planner's own graph, exactly as `cocobench run` plays it
-(`episode_runner.play_episode`): a learning seat's model client is a `SeatClient`, whose
-reply waits for the seat's action, so the episode pauses where the planner asks a learner
-and goes on once the learners answer (`PlannerTurns`). The step, round and led-round rules
-are the planner's, written once in its graph; the environment knows a planner only by what
-its spec declares (`PlannerSpec.loop`, `seats`). So any planner, built in or a plugin such as
-claim-board, is an environment, and an episode played here scores exactly as the same
-replies do under `cocobench run --model scripted:FILE`. Seats without a learner are played
+It plays the planner's own round, exactly as `cocobench run` plays it
+(`episode_runner.play_episode`: a built-in's declared round functions awaited directly, a
+strategy that gives only a graph through LangGraph): a learning seat's model client is a
+`SeatClient`, whose reply waits for the seat's action, so the episode pauses where the
+planner asks a learner and goes on once the learners answer (`PlannerTurns`). The step,
+round and led-round rules are the planner's, written once in its round (or graph); the
+environment knows a planner only by what its spec declares (`PlannerSpec.loop`, `seats`).
+So any planner, built in or a plugin such as claim-board, is an environment, and an episode
+played here scores exactly as the same replies do under `cocobench run --model
+scripted:FILE`. Seats without a learner are played
 by model clients. No Gymnasium or PettingZoo here: `parallel.py` and `seat_env.py` wrap it.
 """
 

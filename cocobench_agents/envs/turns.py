@@ -1,4 +1,4 @@
-"""A planner's graph played until it waits for its learners: the learning seats' model
+"""A planner's episode played until it waits for its learners: the learning seats' model
 clients (`SeatClient`) park each request as an `Ask`, which the environment answers with the
 seat's action; `PlannerTurns.until_waiting` runs the event loop until the planner has ended
 or can go no further without those answers.

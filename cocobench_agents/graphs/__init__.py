@@ -17,13 +17,16 @@ _EXPORTS = {
     "Seat": ".registry", "DEFAULT_PLANNER": ".registry", "ORACLE": ".registry",
     "NO_MODEL": ".registry",
     "compiled_graph": ".lookup", "planner_spec": ".lookup", "find_planner": ".lookup",
+    "planner_rounds": ".lookup",
+    # a round declared once as plain functions: its graph, and the loop that plays it
+    "Rounds": ".rounds", "Node": ".rounds", "FanOut": ".rounds", "play_rounds": ".rounds",
     # what a strategy is made of
     "PlannerContext": ".context",
     "PlannerState": ".state", "TEAM": ".state", "team_history": ".state",
     "decide": ".decision", "ask": ".decision",
     "observe_next": ".nodes", "land_round": ".nodes", "continue_or_end": ".nodes",
     "fan_out": ".decentralized", "add_round": ".decentralized",
-    "round_branches": ".decentralized",
+    "round_branches": ".decentralized", "branch_inputs": ".decentralized",
     "RetryPolicy": "cocobench_agents.models.retry",
 }
 __all__ = sorted(_EXPORTS)

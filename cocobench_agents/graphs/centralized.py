@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
 
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decision import decide
-from cocobench_agents.graphs.nodes import continue_or_end, observe_next
+from cocobench_agents.graphs.nodes import observe_next
+from cocobench_agents.graphs.rounds import Node, Rounds
 from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
 from cocobench_agents.prompts import history_line
+
+if TYPE_CHECKING:
+    from langgraph.graph import StateGraph
 
 POLICY = "centralized_vlm"
 
@@ -42,12 +45,11 @@ def land_decision(ctx: PlannerContext, state: PlannerState, decision: dict[str, 
     return {"pending": None, "history": {TEAM: team}, **observe_next(ctx, state)}
 
 
+def centralized_rounds() -> Rounds:
+    """choose → act (land, then observe), until a terminal reason."""
+    return Rounds((Node("choose", choose), Node("act", act)))
+
+
 def build_centralized() -> StateGraph:
-    """choose → act (land, then observe) → (choose | END)."""
-    graph = StateGraph(PlannerState, context_schema=PlannerContext)
-    graph.add_node("choose", choose)
-    graph.add_node("act", act)
-    graph.add_edge(START, "choose")
-    graph.add_edge("choose", "act")
-    graph.add_conditional_edges("act", continue_or_end("choose"), ["choose", END])
-    return graph
+    """The graph of `centralized_rounds`: choose → act → (choose | END)."""
+    return centralized_rounds().graph()

@@ -8,20 +8,22 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from langgraph.graph import END, START, StateGraph
+from langgraph.graph import END, StateGraph
 from langgraph.runtime import Runtime
 from langgraph.types import Send
 
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decision import decide
 from cocobench_agents.graphs.nodes import land_round
+from cocobench_agents.graphs.rounds import FanOut, Node, Rounds
 from cocobench_agents.graphs.state import PlannerState
 
 POLICY = "distributed_vlm"
 
 
 async def fan_out(state: PlannerState) -> list[Send] | str:
-    """One `decide_agent` branch per agent, each with only what that agent may know."""
+    """One `decide_agent` branch per agent, each with only what that agent may know (a
+    router for a strategy's own graph; `decentralized_rounds` declares the built-ins')."""
     if state.get("terminal_reason"):
         return END
     return round_branches(state, state.get("messages") or [])
@@ -29,13 +31,24 @@ async def fan_out(state: PlannerState) -> list[Send] | str:
 
 def round_branches(state: PlannerState, boards: Sequence[dict[str, Any]] | Mapping[
         str, Sequence[dict[str, Any]]]) -> list[Send]:
-    """The round's `decide_agent` branches: each agent's history and message board (one
-    board for all, or each agent's by name: a strategy may show each robot its own note)."""
+    """The round's `decide_agent` branches (`branch_inputs`) as LangGraph's `Send`s."""
+    return [Send("decide_agent", branch) for branch in branch_inputs(state, boards)]
+
+
+def branch_inputs(state: Mapping[str, Any], boards: Sequence[dict[str, Any]] | Mapping[
+        str, Sequence[dict[str, Any]]]) -> list[dict[str, Any]]:
+    """What each agent's `decide_agent` branch of the round gets: its history and message
+    board (one board for all, or each agent's by name: a strategy may show each robot its
+    own note)."""
     history = state.get("history") or {}
-    return [Send("decide_agent", {"agent": a, "history": history.get(a, []),
-                                  "messages": boards.get(a, []) if isinstance(boards, Mapping)
-                                  else boards})
+    return [{"agent": a, "history": history.get(a, []),
+             "messages": boards.get(a, []) if isinstance(boards, Mapping) else boards}
             for a in state["agents"]]
+
+
+def board_branches(state: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The round's branches, every agent reading the one message board."""
+    return branch_inputs(state, state.get("messages") or [])
 
 
 def make_decide_agent(broadcast: bool):
@@ -49,13 +62,17 @@ def make_decide_agent(broadcast: bool):
     return decide_agent
 
 
+def decentralized_rounds(broadcast: bool = False) -> Rounds:
+    """decide_agent × N (at once) → land_round (land, then observe), until a terminal
+    reason."""
+    return Rounds((FanOut("decide_agent", board_branches, make_decide_agent(broadcast)),
+                   Node("land_round", land_round)))
+
+
 def build_decentralized(broadcast: bool = False) -> StateGraph:
-    """decide_agent × N (parallel) → land_round (land, then observe) → (next round | END)."""
-    graph = StateGraph(PlannerState, context_schema=PlannerContext)
-    add_round(graph, broadcast=broadcast)
-    graph.add_conditional_edges(START, fan_out, ["decide_agent", END])
-    graph.add_conditional_edges("land_round", fan_out, ["decide_agent", END])
-    return graph
+    """The graph of `decentralized_rounds`: decide_agent × N (parallel) → land_round →
+    (next round | END)."""
+    return decentralized_rounds(broadcast).graph()
 
 
 def add_round(graph: StateGraph, *, broadcast: bool) -> None:

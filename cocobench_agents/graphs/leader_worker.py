@@ -9,22 +9,24 @@ allocation by one model, with execution left to each agent, beats both C0 and D1
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
-from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
-from langgraph.types import Send
 
 from cocobench_agents.graphs.context import PlannerContext
-from cocobench_agents.graphs.decentralized import add_round, round_branches
+from cocobench_agents.graphs.decentralized import branch_inputs, make_decide_agent
 from cocobench_agents.graphs.decision import accepts_images
 from cocobench_agents.graphs.model_calls import unrecorded
-from cocobench_agents.graphs.nodes import continue_or_end
+from cocobench_agents.graphs.nodes import land_round
+from cocobench_agents.graphs.rounds import FanOut, Node, Rounds
 from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
 from cocobench_agents.models.protocol import ModelError, ModelReply, ModelRequest
 from cocobench_agents.prompts import history_line
 from cocobench_agents.tools import EpisodeTools, prompt_hash, reply_fields
+
+if TYPE_CHECKING:
+    from langgraph.graph import StateGraph
 
 POLICY = "leader"
 DIRECTIVE = re.compile(r"^\s*(agent_\d+)\s*:\s*(.+?)\s*$", re.MULTILINE)
@@ -41,15 +43,13 @@ async def lead(state: LeaderWorkerState, runtime: Runtime[PlannerContext]) -> di
     return {"directives": await ask_leader(runtime.context, team_history(state))}
 
 
-async def instructed(state: LeaderWorkerState) -> list[Send] | str:
-    """The robots' decisions of the round (`round_branches`), each robot's board showing the
+def instructed(state: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The robots' decisions of the round (`branch_inputs`), each robot's board showing the
     posted messages and, last, the leader's instruction to it."""
-    if state.get("terminal_reason"):
-        return END
     messages = state.get("messages") or []
     directives = state.get("directives") or {}
-    return round_branches(state, {a: board(messages, directives.get(a))
-                                  for a in state["agents"]})
+    return branch_inputs(state, {a: board(messages, directives.get(a))
+                                 for a in state["agents"]})
 
 
 def board(messages: Sequence[dict[str, Any]], directive: str | None) -> list[dict[str, Any]]:
@@ -107,15 +107,15 @@ def team_lines(tools: EpisodeTools) -> list[str]:
             for i in tools.episode.items if "skill_result" in i]
 
 
+def leader_worker_rounds() -> Rounds:
+    """team_history → lead → decide_agent × N (at once) → land_round (land, observe), until
+    a terminal reason."""
+    return Rounds((Node("team_history", remember_team), Node("lead", lead),
+                   FanOut("decide_agent", instructed, make_decide_agent(broadcast=True)),
+                   Node("land_round", land_round)), state=LeaderWorkerState)
+
+
 def build_leader_worker() -> StateGraph:
-    """team_history → lead → decide_agent × N → land_round (land, observe) → (… | END)."""
-    graph = StateGraph(LeaderWorkerState, context_schema=PlannerContext)
-    add_round(graph, broadcast=True)
-    graph.add_node("team_history", remember_team)
-    graph.add_node("lead", lead)
-    graph.add_edge(START, "team_history")
-    graph.add_edge("team_history", "lead")
-    graph.add_conditional_edges("lead", instructed, ["decide_agent", END])
-    graph.add_conditional_edges("land_round", continue_or_end("team_history"),
-                                ["team_history", END])
-    return graph
+    """The graph of `leader_worker_rounds`: team_history → lead → decide_agent × N →
+    land_round → (team_history | END)."""
+    return leader_worker_rounds().graph()

@@ -7,14 +7,18 @@ It sits above both `registry` and `plugins`, so that neither imports the other's
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cocobench_agents.graphs.plugins import find_user_planner, load_planner
 from cocobench_agents.graphs.registry import PLANNERS, PlannerError, PlannerSpec
 
+if TYPE_CHECKING:
+    from cocobench_agents.graphs.rounds import Rounds
+
 # Compiled once per process, by canonical name. A user planner loaded afresh
 # (`plugins.forget_user_planners`) is a new spec, so it compiles again.
 _COMPILED: dict[str, tuple[PlannerSpec, Any]] = {}
+_ROUNDS: dict[str, tuple[PlannerSpec, Rounds]] = {}
 
 
 def planner_spec(name: str) -> PlannerSpec:
@@ -36,6 +40,19 @@ def find_planner(text: str) -> str | None:
     if text in by_code or text in PLANNERS:
         return by_code.get(text, text)
     return find_user_planner(text)
+
+
+def planner_rounds(name: str) -> Rounds | None:
+    """The round a planner declares as plain functions (`PlannerSpec.rounds`, built once
+    per process), which episodes play directly; None for a planner that gives only a
+    graph."""
+    spec = planner_spec(name)
+    if spec.rounds is None:
+        return None
+    cached = _ROUNDS.get(spec.name)
+    if cached is None or cached[0] is not spec:
+        cached = _ROUNDS[spec.name] = (spec, spec.rounds())
+    return cached[1]
 
 
 def compiled_graph(name: str):

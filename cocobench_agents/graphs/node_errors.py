@@ -25,8 +25,11 @@ from cocobench_agents.graphs.registry import PLANNERS
 
 #: How LangGraph names the node (its task) on an exception raised inside it.
 _TASK_NOTE = re.compile(r"During task with name '(?P<node>[^']+)'")
-#: Where the frames that run nodes live (not the strategy's code).
+#: Where the frames that run nodes live (not the strategy's code): LangGraph, and the plain
+#: loop of a planner's declared rounds (`rounds.py`, by path: importing it here would load
+#: it on the CLI's light paths).
 _RUNNER_PACKAGES = ("langgraph", "langchain_core")
+_RUNNER_FILES = (__file__, str(Path(__file__).with_name("rounds.py")))
 #: The simulators' own exceptions (a Unity process that died) are infrastructure failures.
 _SIMULATORS = "benchmark_adapter.sim."
 FRAMES = 3  # the traceback's last frames that are shown
@@ -104,7 +107,7 @@ def node_failure(exc: BaseException) -> NodeFailure | None:
 
 def _is_runner(frame: traceback.FrameSummary) -> bool:
     """A frame that runs nodes: LangGraph's, or the check around a node (`checked_nodes`)."""
-    return frame.filename == __file__ or any(
+    return frame.filename in _RUNNER_FILES or any(
         package in Path(frame.filename).parts for package in _RUNNER_PACKAGES)
 
 
@@ -247,7 +250,9 @@ def decision_problem(record: Any) -> str | None:
 
 
 class EndlessLoop(RecursionError):
-    """A planner graph reached LangGraph's recursion limit without ending (`run_to_end`)."""
+    """A planner graph reached LangGraph's recursion limit without ending (`run_to_end`),
+    or a planner's declared rounds as many supersteps (`rounds.play_rounds`); `graph` is the
+    compiled graph or the `Rounds`."""
 
     def __init__(self, limit: int, last_nodes: Sequence[str], graph: Any) -> None:
         super().__init__(f"recursion limit of {limit} reached; the last nodes: "
@@ -291,7 +296,11 @@ def endless_loop(limit: int, last_nodes: Sequence[str], graph: Any) -> NodeFailu
 
 
 def node_function(graph: Any, node: str) -> Callable[..., Any] | None:
-    """The strategy's function behind `node` of compiled `graph`, or None (a subgraph)."""
+    """The strategy's function behind `node` of compiled `graph` (or of a `Rounds`), or None
+    (a subgraph)."""
+    if hasattr(graph, "node_function"):  # a planner's declared rounds
+        function = graph.node_function(node)
+        return inspect.unwrap(function) if callable(function) else None
     spec = getattr(getattr(graph, "builder", None), "nodes", {}).get(node)
     runnable = getattr(spec, "runnable", None)
     function = getattr(runnable, "func", None) or getattr(runnable, "afunc", None)

@@ -5,17 +5,20 @@ from __future__ import annotations
 import weakref
 from collections.abc import Generator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
 
 from benchmark_adapter.oracles import oracle_plan
 from benchmark_adapter.skills import SkillResult
 from cocobench_agents.graphs.context import PlannerContext
-from cocobench_agents.graphs.nodes import continue_or_end, observe_next
+from cocobench_agents.graphs.nodes import observe_next
+from cocobench_agents.graphs.rounds import Node, Rounds
 from cocobench_agents.graphs.state import PlannerState
 from cocobench_agents.tools import EpisodeTools, stop_decision
+
+if TYPE_CHECKING:
+    from langgraph.graph import StateGraph
 
 POLICY = "oracle"
 
@@ -55,11 +58,11 @@ async def follow_plan(state: PlannerState, runtime: Runtime[PlannerContext]) -> 
     return observe_next(ctx, state)
 
 
+def oracle_rounds() -> Rounds:
+    """follow_plan (land, then observe), until the plan ends or the budget is spent."""
+    return Rounds((Node("follow_plan", follow_plan),))
+
+
 def build_oracle() -> StateGraph:
-    """follow_plan (land, then observe) → (follow_plan | END)."""
-    graph = StateGraph(PlannerState, context_schema=PlannerContext)
-    graph.add_node("follow_plan", follow_plan)
-    graph.add_edge(START, "follow_plan")
-    graph.add_conditional_edges("follow_plan", continue_or_end("follow_plan"),
-                                ["follow_plan", END])
-    return graph
+    """The graph of `oracle_rounds`: follow_plan → (follow_plan | END)."""
+    return oracle_rounds().graph()

@@ -19,6 +19,8 @@ from cocobench_agents.models.retry import RetryPolicy
 if TYPE_CHECKING:
     from langgraph.graph import StateGraph
 
+    from cocobench_agents.graphs.rounds import Rounds
+
 
 #: `PlannerSpec.loop` values: who decides in a decision round.
 STEP, ROUND, LED_ROUND = "step", "round", "led-round"
@@ -76,6 +78,10 @@ class PlannerSpec:
     # Its own prompt templates (name → default text), which `ask` renders: part of the
     # prompt suite (a suite folder's NAME.txt replaces one; the suite's hash covers them).
     templates: Mapping[str, str] = field(default_factory=dict, hash=False)
+    # Its round as plain async functions (`rounds.Rounds`), which `build`'s graph is built
+    # from: an episode then awaits them in a plain loop, without LangGraph's per-superstep
+    # cost. None (a strategy that gives only a graph): episodes run the graph.
+    rounds: Callable[[], Rounds] | None = None
 
     @property
     def prompt_kind(self) -> str:
@@ -130,11 +136,11 @@ class PlannerSpec:
         return self.seat_count(agent_count) * self.seat_calls(agent_count, budget)
 
 
-def lazy_builder(target: str, **kwargs: Any) -> Callable[[], StateGraph]:
-    """A graph builder named ``module:function``, imported when a graph is first built (so
-    the registry can be read without importing LangGraph)."""
+def lazy_builder(target: str, **kwargs: Any) -> Callable[[], Any]:
+    """A graph (or `Rounds`) builder named ``module:function``, imported when first called
+    (so the registry can be read without importing LangGraph)."""
 
-    def build() -> StateGraph:
+    def build() -> Any:
         module, _, name = target.partition(":")
         return getattr(importlib.import_module(module), name)(**kwargs)
 
@@ -148,21 +154,28 @@ PLANNERS: dict[str, PlannerSpec] = {spec.name: spec for spec in (
     PlannerSpec(DEFAULT_PLANNER, "C0", lazy_builder(f"{_GRAPHS}.centralized:build_centralized"),
                 False, True,
                 "one planner sees all views and moves one agent per step (paper C0)",
-                loop="step", prompt="team"),
+                loop="step", prompt="team",
+                rounds=lazy_builder(f"{_GRAPHS}.centralized:centralized_rounds")),
     PlannerSpec("decentralized", "D0",
                 lazy_builder(f"{_GRAPHS}.decentralized:build_decentralized", broadcast=False),
                 True, True, "one model per agent, simultaneous decisions, no messages (D0)",
-                loop="round", prompt="agent"),
+                loop="round", prompt="agent",
+                rounds=lazy_builder(f"{_GRAPHS}.decentralized:decentralized_rounds",
+                                    broadcast=False)),
     PlannerSpec("decentralized-broadcast", "D1",
                 lazy_builder(f"{_GRAPHS}.decentralized:build_decentralized", broadcast=True),
                 True, True, "D0 plus a broadcast message board (D1)",
-                loop="round", prompt="agent", broadcast=True),
+                loop="round", prompt="agent", broadcast=True,
+                rounds=lazy_builder(f"{_GRAPHS}.decentralized:decentralized_rounds",
+                                    broadcast=True)),
     PlannerSpec("leader-worker", "LW", lazy_builder(f"{_GRAPHS}.leader_worker:build_leader_worker"),
                 True, True,
                 "a leader model instructs each robot every round; robots decide in parallel",
-                loop="led-round", prompt="agent", broadcast=True),
+                loop="led-round", prompt="agent", broadcast=True,
+                rounds=lazy_builder(f"{_GRAPHS}.leader_worker:leader_worker_rounds")),
     PlannerSpec(ORACLE, "OR", lazy_builder(f"{_GRAPHS}.oracle:build_oracle"), False, False,
-                "the cell's privileged reference plan"),
+                "the cell's privileged reference plan",
+                rounds=lazy_builder(f"{_GRAPHS}.oracle:oracle_rounds")),
 )}
 #: The paper's architectures (C0, D0, D1): the planners of the `all`, `image` and `blind`
 #: condition shortcuts.
