@@ -7,9 +7,15 @@ menu and mask), and prints medians over repeated runs:
 - environment steps/s (one step: every acting seat's move, landed by the planner's rules) and
   the ratio to AI2-THOR's 13–22 actions/s per process (aim: >= 1,000 with text, >= 5,000
   without), with the steps per CPU-second and the load average beside them (on a shared
-  machine the wall-clock rate falls with the load; the CPU rate much less). Since the
-  environment plays the planner's own LangGraph graph (63cd55f) a step costs several times
-  what it did, and the aims are not met: see docs/environments.md, "Speed";
+  machine the wall-clock rate falls with the load; the CPU rate less, but several-fold at a
+  load of 12 or more on 2 cores: compare rates taken at the same load). The environment
+  plays the planner's own round: played through its LangGraph graph (63cd55f) a step cost
+  several times what it did; a built-in's declared round functions, awaited directly
+  (`PlannerSpec.rounds`, `graphs/rounds.py`), took per CPU-second C0_blind 197 -> 503 (text
+  on) and 251 -> 555 (off), D1_blind 147 -> 302 and 129 -> 285, C0_image 143 -> 235,
+  D1_image 94 -> 141 (the befores at lower loads), the rest of each step now mostly the
+  simulator's; the aims are not met yet: see
+  docs/environments.md, "Speed";
 - landed skill steps/s (a D-round lands up to one call per robot);
 - the environment's own time per step: all but the simulator's `Episode.step` (random
   actions are far costlier for the simulator than an oracle's plan: a `Find` of an object

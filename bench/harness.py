@@ -2,9 +2,12 @@
 memory over a full-suite run.
 
 Prints medians and ratios:
-1. overhead per planner decision (graph, prompt, parse, simulator step, recording, scoring)
-   with the zero-latency `greedy` built-in, C0 and D1, wall and CPU (aim: median <= 0.5 ms,
-   issue 39);
+1. overhead per planner decision (the planner's loop, prompt, parse, simulator step,
+   recording, scoring) with the zero-latency `greedy` built-in, C0 and D1, wall and CPU (aim:
+   median <= 0.5 ms, issue 39). The built-ins' rounds are awaited directly
+   (`graphs/rounds.py`), not through LangGraph: CPU per decision C0 2.50-3.42 -> 0.72-0.92
+   ms, D1 1.93-2.07 -> 0.67-0.99 ms, measured alternately at a load of 12-14 on 2 cores
+   (docs/contributing.md says where the rest goes);
 2. N episodes (each to its own step budget) at --jobs 64 against a local OpenAI-compatible
    server (a separate process) that answers every call after a fixed 200 ms: wall time vs
    the ideal (total model time / 64) (aim: <= 1.25x), for each model transport (LiteLLM, the
