@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from .protocol import MenuOption
+from .protocol import MenuOption, Prompt, prompt_words
 
 # The REASON and MSG lines are capped so that a constrained reply always reaches its ACTION
 # line well within a modest max_tokens (a model that rambles would otherwise be cut off first).
@@ -12,9 +12,9 @@ REASON_MAX_CHARS = 300
 MSG_MAX_CHARS = 200  # the reference truncates messages to 200 characters anyway
 
 
-def wants_message(prompt: str) -> bool:
-    """Whether the prompt asks for a broadcast `MSG:` line."""
-    return "MSG:" in prompt
+def wants_message(prompt: Prompt) -> bool:
+    """Whether the prompt (its text, or its text parts) asks for a broadcast `MSG:` line."""
+    return "MSG:" in prompt_words(prompt)
 
 
 def menu_grammar(menu: Iterable[MenuOption], *, with_msg: bool = False) -> str:

@@ -17,7 +17,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from .grammar import wants_message
 from .messages import image_data_url
-from .protocol import TEAM_SEAT, EpisodeHalt, ModelError, ModelReply, ModelRequest
+from .protocol import TEAM_SEAT, EpisodeHalt, ModelError, ModelReply, ModelRequest, prompt_text
 
 HUMAN = "human"
 
@@ -33,7 +33,7 @@ class Decision:
     # the engine's EpisodeStarted / EpisodeRecorded events carry its key and result.
     episode: str
     seat: str  # the deciding agent, or TEAM_SEAT ("team") for the team's model
-    prompt: str  # the full rendered prompt
+    prompt: str  # the full rendered prompt (content parts: as their JSON, as recorded)
     images: tuple[str, ...] = ()  # the frames as data URLs (image mode)
     menu: tuple[dict[str, Any], ...] = ()  # {"id": 3, "skill": "PickUp", "call": "PickUp(…)"}
     wants_message: bool = False  # D1: the seat may broadcast a message with its choice
@@ -146,7 +146,8 @@ class HumanClient:
         seat = request.agent or TEAM_SEAT
         return Decision(
             id=f"{self.episode}#{seat}#{self.asked + 1}", episode=self.episode, seat=seat,
-            prompt=request.prompt, images=tuple(image_data_url(png) for png in request.images),
+            prompt=prompt_text(request.prompt),
+            images=tuple(image_data_url(png) for png in request.images),
             menu=tuple({"id": o.action_id, "skill": o.skill, "call": o.call}
                        for o in request.menu),
             wants_message=wants_message(request.prompt), step_index=request.step_index)

@@ -15,10 +15,13 @@ def image_data_url(png: bytes) -> str:
 
 def build_messages(request: ModelRequest) -> list[dict[str, Any]]:
     """One user message: the prompt alone (text mode), or the prompt then one ``image_url``
-    part per frame (image mode), as the reference sends them."""
+    part per frame (image mode), as the reference sends them. A prompt of content parts is
+    sent as its parts, the frames after them."""
     if not request.images:
         return [{"role": "user", "content": request.prompt}]
-    content: list[dict[str, Any]] = [{"type": "text", "text": request.prompt}]
+    content: list[dict[str, Any]] = (
+        list(request.prompt) if isinstance(request.prompt, list)
+        else [{"type": "text", "text": request.prompt}])
     content.extend(
         {"type": "image_url", "image_url": {"url": image_data_url(png)}} for png in request.images
     )

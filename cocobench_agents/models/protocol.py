@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
+
+#: A request's prompt: its text, or chat content parts a strategy gives to be sent as they
+#: are (``[{"type": "text", "text": …}, {"type": "image_url", …}]``, `chat_schema` checks
+#: them); the frames of `ModelRequest.images` go after either.
+Prompt = str | list[dict[str, Any]]
 
 
 @dataclass(frozen=True)
@@ -26,12 +32,30 @@ TEAM_SEAT = "team"
 class ModelRequest:
     """One planner decision to make."""
 
-    prompt: str
+    prompt: Prompt
     images: tuple[bytes, ...] = ()  # PNG frames, sent in image mode only
     menu: tuple[MenuOption, ...] = ()  # the ids the prompt offers
     agent: str | None = None  # the deciding agent (None for a centralized planner)
     sample_index: int = 0  # epoch / repeated sample; part of the cache key
     step_index: int = 0  # steps landed so far (shown to a person; never sent to a model)
+
+
+def prompt_text(prompt: Prompt) -> str:
+    """A request's prompt as the text that is kept and hashed: the text itself, or content
+    parts as canonical JSON, so that they are recorded like any other prompt and the
+    request's check or server judges them."""
+    if isinstance(prompt, str):
+        return prompt
+    return json.dumps(prompt, sort_keys=True, ensure_ascii=False, default=repr)
+
+
+def prompt_words(prompt: Prompt) -> str:
+    """What a prompt says: its text, or the text of its text parts, one a line (what asks
+    for a ``MSG:`` line, say)."""
+    if isinstance(prompt, str):
+        return prompt
+    return "\n".join(part["text"] for part in prompt if isinstance(part, dict)
+                     and part.get("type") == "text" and isinstance(part.get("text"), str))
 
 
 @dataclass(frozen=True)

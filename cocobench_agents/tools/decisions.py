@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import json
 from typing import Any
 
 from cocobench_agents.models.protocol import ModelError, ModelReply
@@ -16,15 +15,6 @@ from cocobench_agents.prompts import ParsedReply
 def prompt_hash(prompt: str) -> str:
     """Short stable fingerprint of a rendered prompt."""
     return hashlib.sha256(prompt.encode("utf-8")).hexdigest()[:16]
-
-
-def prompt_text(prompt: Any) -> str:
-    """A request's prompt as the text that is kept and hashed: the text itself, or a prompt
-    given otherwise (a list of content parts, sent to a client directly) as canonical JSON,
-    so that it is recorded like any other and the request's check or server judges it."""
-    if isinstance(prompt, str):
-        return prompt
-    return json.dumps(prompt, sort_keys=True, ensure_ascii=False, default=repr)
 
 
 def model_decision(*, policy: str, model: str, agent: str | None, step_index: int,

@@ -14,6 +14,7 @@ from cocobench_agents.models import (
     ModelError,
     ModelRequest,
 )
+from cocobench_agents.models.chat_schema import request_problem
 
 from .fake_openai import (
     BAD_REQUEST,
@@ -202,6 +203,24 @@ def test_payload_in_image_mode(fake, make_client):
     assert url.startswith("data:image/png;base64,")
     assert base64.b64decode(url.split(",", 1)[1]) == png
     assert second["image_url"]["url"] != url
+
+
+def test_a_prompt_of_content_parts_is_sent_as_its_parts_then_the_frames(fake, make_client):
+    """A chat prompt (content parts, as a strategy may give one) keeps its parts, the frames
+    after them; its text asks for a MSG: line as a text prompt does."""
+    png = b"\x89PNG\r\n\x1a\nfake-frame"
+    parts = [{"type": "text", "text": "Look at the frame."},
+             {"type": "text", "text": "Reply with MSG: too"}]
+    menu = (MenuOption(3, "PickUp", "PickUp(a)"),)
+    request = ModelRequest(prompt=parts, images=(png,), menu=menu)
+    assert request_problem(request) is None
+    ask(make_client(grammar=True), request)
+    (message,) = fake.requests[0]["messages"]
+    assert message["content"][:2] == parts
+    assert [part["type"] for part in message["content"]] == ["text", "text", "image_url"]
+    assert '"\\nMSG: "' in fake.requests[0]["grammar"]
+    ask(make_client(), ModelRequest(prompt=parts[:1]))
+    assert fake.requests[1]["messages"] == [{"role": "user", "content": parts[:1]}]
 
 
 def test_sampling_parameters_and_extra_params(fake, make_client):
