@@ -96,6 +96,9 @@ EXTRAS = (
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption("--fail-on-skip", action="store_true",
                      help="fail the session if any test was skipped (every extra installed)")
+    parser.addoption("--record-skipped", metavar="FILE", type=Path,
+                     help="write the node id of each skipped test to FILE, one a line "
+                          "(CI reruns them with every extra installed: pytest @FILE)")
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
@@ -122,6 +125,23 @@ def slow_modules_first(items: list[pytest.Item]) -> None:
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    record_skipped(session)
+    fail_on_skip(session, exitstatus)
+
+
+def record_skipped(session: pytest.Session) -> None:
+    """Under `--record-skipped FILE`, the ids of the tests that skipped, one a line (written by
+    the controller under xdist, which has every worker's reports; an empty file when none)."""
+    path = session.config.getoption("record_skipped")
+    if path is None or hasattr(session.config, "workerinput"):
+        return
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    skipped = reporter.stats.get("skipped", []) if reporter else []
+    ids = sorted({report.nodeid for report in skipped})
+    path.write_text("".join(f"{nodeid}\n" for nodeid in ids), encoding="utf-8")
+
+
+def fail_on_skip(session: pytest.Session, exitstatus: int) -> None:
     """Under `--fail-on-skip`, a skipped test fails the session (exit 1). Under xdist the
     controller decides: it has every worker's reports (a worker's exit status is ignored)."""
     if not session.config.getoption("fail_on_skip") or hasattr(session.config, "workerinput"):

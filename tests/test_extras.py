@@ -123,6 +123,18 @@ def test_fail_on_skip_passes_a_session_without_skips(session):
     assert session.runpytest("--fail-on-skip").ret == pytest.ExitCode.OK
 
 
+def test_record_skipped_names_what_a_parallel_session_skipped(session, monkeypatch, tmp_path):
+    # CI's first run records what skipped there; its run with every extra takes the file back.
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    session.makepyfile(SKIPS_ONE)
+    record = tmp_path / "skipped.txt"
+    result = session.runpytest("-p", "xdist", "-n", "1", "--record-skipped", str(record))
+    result.assert_outcomes(passed=1, skipped=1)
+    module = "test_record_skipped_names_what_a_parallel_session_skipped.py"
+    assert record.read_text() == f"{module}::test_skipped\n"
+    session.runpytest("-p", "xdist", "-n", "1", f"@{record}").assert_outcomes(skipped=1)
+
+
 def test_no_test_skips_on_its_own_import():
     # Skips on a missing piece go through a marker (tests/conftest.py), never a module's own
     # importorskip: one place says what each extra is and how to install it.
