@@ -88,14 +88,16 @@ class InspectClient(RemoteClient):
 
     async def send(self, messages: list[dict[str, Any]], params: dict[str, Any],
                    timeout_s: float) -> Completion:
+        from inspect_ai.log._transcript import transcript
         from inspect_ai.model import GenerateConfig
 
         model = self.inspect_model or inspect_model(_AGENT.get())
+        before = transcript().history.event_count  # this call's events come after
         output = await model.generate(chat_messages(messages),
                                       config=GenerateConfig(**generate_config(params)))
         if output.error:  # a refusal or content filter the provider reported as such
             raise InspectOutputError(output.error)
-        _FROM_CACHE.set(served_from_cache(output))
+        _FROM_CACHE.set(served_from_cache(output, since=before))
         usage = output.usage
         return Completion(
             text=output.completion or "",
@@ -188,12 +190,15 @@ def generate_config(params: dict[str, Any]) -> dict[str, Any]:
     return config
 
 
-def served_from_cache(output: Any) -> bool:
+def served_from_cache(output: Any, since: int) -> bool:
     """Whether Inspect answered with `output` from its response cache: the latest model event
-    of the sample's transcript that carries it (a copy of it) says so (``cache="read"``)."""
+    of the sample's transcript that carries it (a copy of it) says so (``cache="read"``).
+    Only the events logged from the index `since` on are read (the transcript's event count
+    before the call): a sample's calls then read its transcript once in all, not once each
+    (`Transcript.events` may even re-read its history from the start for every index)."""
     from inspect_ai.log._transcript import transcript
 
-    for event in reversed(transcript().events):
+    for event in reversed(transcript().history.events_from(since)):
         if getattr(event, "event", None) == "model" and (event.output is output
                                                          or event.output == output):
             return event.cache == "read"
