@@ -19,8 +19,6 @@ from cocobench_agents.models.retry import RetryPolicy
 if TYPE_CHECKING:
     from langgraph.graph import StateGraph
 
-    from cocobench_agents.graphs.rounds import Rounds
-
 
 #: `PlannerSpec.loop` values: who decides in a decision round.
 STEP, ROUND, LED_ROUND = "step", "round", "led-round"
@@ -80,8 +78,9 @@ class PlannerSpec:
     templates: Mapping[str, str] = field(default_factory=dict, hash=False)
     # Its round as plain async functions (`rounds.Rounds`), which `build`'s graph is built
     # from: an episode then awaits them in a plain loop, without LangGraph's per-superstep
-    # cost. None (a strategy that gives only a graph): episodes run the graph.
-    rounds: Callable[[], Rounds] | None = None
+    # cost. None (a strategy that gives only a graph): episodes run the graph. Typed Any, not
+    # `Rounds`: rounds.py reaches node_errors, which reads this registry (an import cycle).
+    rounds: Callable[[], Any] | None = None
 
     @property
     def prompt_kind(self) -> str:
