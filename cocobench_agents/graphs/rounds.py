@@ -168,7 +168,10 @@ async def _fan_out(step: FanOut, branches: Sequence[Mapping[str, Any]], runtime:
         return await asyncio.gather(*tasks)
     finally:
         for task in tasks:
-            task.cancel()  # a no-op for the finished ones
+            # Not on a closed loop: an abandoned environment's episode is closed by the
+            # garbage collector after its loop (cancel would raise 'Event loop is closed').
+            if not task.done() and not task.get_loop().is_closed():
+                task.cancel()
 
 
 async def _run(step: Node | FanOut, value: Any, runtime: Any, checked: bool

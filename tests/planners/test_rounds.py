@@ -177,3 +177,27 @@ def test_a_round_is_refused_when_a_fan_out_has_no_node_to_take_its_branches():
     Rounds((Node("a", nothing), FanOut("b", lambda state: [], nothing)))  # b feeds a's round
     with pytest.raises(ValueError, match="distinct names"):
         Rounds((Node("a", nothing), Node("a", nothing)))
+
+
+@pytest.mark.filterwarnings("error::pytest.PytestUnraisableExceptionWarning")
+def test_an_episode_left_in_a_fan_out_on_a_closed_loop_is_collected_quietly():
+    """An environment dropped mid-round: its loop closed before the garbage collector closes
+    the episode's coroutine, which is waiting in a fan-out; that must not raise 'Event loop
+    is closed' (an 'Exception ignored' at a script's exit)."""
+    import gc
+
+    from cocobench_agents.graphs.rounds import _fan_out
+
+    async def wait_forever(branch, runtime):
+        await asyncio.Event().wait()
+
+    step = FanOut("wait", lambda state: [{}], wait_forever)
+    loop = asyncio.new_event_loop()
+    coroutine = _fan_out(step, [{}, {}], None, False)
+    played = loop.create_task(coroutine)
+    loop.run_until_complete(asyncio.sleep(0))
+    assert not played.done()
+    loop.close()
+    del played
+    coroutine.close()  # what the collector does with the abandoned episode
+    gc.collect()
