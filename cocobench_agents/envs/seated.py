@@ -54,7 +54,7 @@ from cocobench_agents.graphs.registry import (
 )
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.grammar import wants_message
-from cocobench_agents.models.protocol import MenuOption
+from cocobench_agents.models.protocol import MenuOption, prompt_words
 from cocobench_agents.models.settings import ModelSettings
 from cocobench_agents.prompts import history_line
 
@@ -290,7 +290,8 @@ class SeatedEpisode:
         if ask is None:
             return SeatView(seat, False, "", ())
         request = ask.request
-        prompt = request.prompt if self.text else ""
+        # A strategy may send content parts: the observation holds what they say.
+        prompt = prompt_words(request.prompt) if self.text else ""
         if not request.menu:  # a free-text ask (the leader's): the move's message answers
             return SeatView(seat, True, prompt, (), sends_message=True)
         return SeatView(seat, True, prompt, request.menu, self.tools.menu_lines(request.agent),
@@ -300,7 +301,7 @@ class SeatedEpisode:
         """The prompt the planner sent `seat` now (also when `text` is off: `render`'s text
         view); "" for a waiting seat."""
         ask = self.turns.asks.get(seat) if not self.finished else None
-        return ask.request.prompt if ask is not None else ""
+        return prompt_words(ask.request.prompt) if ask is not None else ""
 
     def history(self, seat: str) -> list[str]:
         """The landed calls `seat` answers for, oldest first ("call -> ok" / "call ->
