@@ -17,20 +17,23 @@ Written from docs/planners.md alone, as a template for a strategy in one file:
 from __future__ import annotations
 
 import asyncio
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
 
 from benchmark_adapter.skills.calls import parse_call
 from cocobench_agents.graphs import (
+    Node,
     PlannerContext,
     PlannerSpec,
     PlannerState,
-    continue_or_end,
+    Rounds,
     decide,
     land_round,
 )
+
+if TYPE_CHECKING:
+    from langgraph.graph import StateGraph
 
 POLICY = "first_come"
 
@@ -75,22 +78,21 @@ async def decide_all(state: PlannerState, runtime: Runtime[PlannerContext]
     return {"pending": pending, "messages": [*board, *notes]}
 
 
+def first_come_rounds() -> Rounds:
+    """decide_all → land_round (land, then observe), until a terminal reason."""
+    return Rounds((Node("decide_all", decide_all), Node("land_round", land_round)))
+
+
 def build_first_come() -> StateGraph:
-    """decide_all → land_round (land, then observe) → (decide_all | END)."""
-    graph = StateGraph(PlannerState, context_schema=PlannerContext)
-    graph.add_node("decide_all", decide_all)
-    graph.add_node("land_round", land_round)
-    graph.add_edge(START, "decide_all")
-    graph.add_edge("decide_all", "land_round")
-    graph.add_conditional_edges("land_round", continue_or_end("decide_all"),
-                                ["decide_all", END])
-    return graph
+    """The graph of `first_come_rounds`: decide_all → land_round → (decide_all | END)."""
+    return first_come_rounds().graph()
 
 
 FIRST_COME = PlannerSpec(
     name="first-come",  # replaced by the reference it is loaded by
     code="FC",  # FC_image, FC_blind in --conditions, run folders and reports
     build=build_first_come,
+    rounds=first_come_rounds,  # episodes await its round directly, without LangGraph
     decentralized=True,  # one model per agent (--agent-model works)
     uses_models=True,
     description="robots decide at once; of two choosing the same object, the first in "

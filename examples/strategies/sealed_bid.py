@@ -15,21 +15,24 @@ run's retry policy and records it like a decision (usage, cost, the viewer's tim
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
 
 from benchmark_adapter.skills.calls import parse_call
 from cocobench_agents.graphs import (
+    Node,
     PlannerContext,
     PlannerSpec,
     PlannerState,
+    Rounds,
     ask,
-    continue_or_end,
     decide,
     land_round,
 )
+
+if TYPE_CHECKING:
+    from langgraph.graph import StateGraph
 
 POLICY = "sealed_bid"
 PRICES = ("1", "2", "3", "4", "5")
@@ -88,22 +91,21 @@ async def settle(ctx: PlannerContext, bids: list[dict[str, Any]], contested: lis
                            "outbid_by": bids[winner]["agent"], "price": prices[index]}
 
 
+def sealed_bid_rounds() -> Rounds:
+    """bid_round → land_round (land, then observe), until a terminal reason."""
+    return Rounds((Node("bid_round", bid_round), Node("land_round", land_round)))
+
+
 def build_sealed_bid() -> StateGraph:
-    """bid_round → land_round (land, then observe) → (bid_round | END)."""
-    graph = StateGraph(PlannerState, context_schema=PlannerContext)
-    graph.add_node("bid_round", bid_round)
-    graph.add_node("land_round", land_round)
-    graph.add_edge(START, "bid_round")
-    graph.add_edge("bid_round", "land_round")
-    graph.add_conditional_edges("land_round", continue_or_end("bid_round"),
-                                ["bid_round", END])
-    return graph
+    """The graph of `sealed_bid_rounds`: bid_round → land_round → (bid_round | END)."""
+    return sealed_bid_rounds().graph()
 
 
 SEALED_BID = PlannerSpec(
     name="sealed-bid",  # replaced by the reference it is loaded by
     code="SB",
     build=build_sealed_bid,
+    rounds=sealed_bid_rounds,  # episodes await its round directly, without LangGraph
     decentralized=True,
     uses_models=True,
     description="robots bid with their decisions; a contested object goes to the lowest "

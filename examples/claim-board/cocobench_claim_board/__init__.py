@@ -1,8 +1,8 @@
 """The claim-board strategy, registered with cocobench through the entry point in
 pyproject.toml.
 
-The spec names its graph builder as a string (`lazy_builder`): listing planners or planning a
-run reads this module without importing LangGraph.
+The spec names its graph and round builders as strings (`lazy_builder`): listing planners or
+planning a run reads this module without importing LangGraph.
 """
 
 from cocobench_agents.graphs import PlannerSpec, lazy_builder
@@ -11,6 +11,8 @@ CLAIM_BOARD = PlannerSpec(
     name="claim-board",  # cocobench names it after the entry point
     code="CL",  # condition code: CL_image, CL_blind in --conditions, run folders, reports
     build=lazy_builder("cocobench_claim_board.graph:build_claim_board"),
+    # Its round as plain functions, which episodes await directly, without LangGraph:
+    rounds=lazy_builder("cocobench_claim_board.graph:claim_board_rounds"),
     decentralized=True,  # one model per agent (--agent-model works)
     uses_models=True,
     description="robots claim the object they will work on, in turn, on a shared board; "

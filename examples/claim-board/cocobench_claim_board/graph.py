@@ -15,18 +15,21 @@ needs a leader at all.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from langgraph.graph import END, START, StateGraph
 from langgraph.runtime import Runtime
 
 from cocobench_agents.graphs import (
+    Node,
     PlannerContext,
     PlannerState,
-    continue_or_end,
+    Rounds,
     decide,
     land_round,
 )
+
+if TYPE_CHECKING:
+    from langgraph.graph import StateGraph
 
 POLICY = "claim_board"
 BOARD = "board"  # the author of the board's own notes (a conflict)
@@ -89,13 +92,11 @@ def _label(ctx: PlannerContext, decision: dict[str, Any]) -> str:
     return names.get(call, call).partition(": ")[2] or call
 
 
+def claim_board_rounds() -> Rounds:
+    """claim_round → land_round (land, then observe), until a terminal reason."""
+    return Rounds((Node("claim_round", claim_round), Node("land_round", land_round)))
+
+
 def build_claim_board() -> StateGraph:
-    """claim_round → land_round (land, then observe) → (claim_round | END)."""
-    graph = StateGraph(PlannerState, context_schema=PlannerContext)
-    graph.add_node("claim_round", claim_round)
-    graph.add_node("land_round", land_round)
-    graph.add_edge(START, "claim_round")
-    graph.add_edge("claim_round", "land_round")
-    graph.add_conditional_edges("land_round", continue_or_end("claim_round"),
-                                ["claim_round", END])
-    return graph
+    """The graph of `claim_board_rounds`: claim_round → land_round → (claim_round | END)."""
+    return claim_board_rounds().graph()
