@@ -175,3 +175,21 @@ def test_the_package_installs_registers_and_runs_end_to_end(tmp_path):
     assert all(r["construct_status"] for r in rows)  # scored, not only recorded
     recorded = json.loads((out / "run.json").read_text())["planners"]["claim-board"]
     assert recorded["distribution"] == "cocobench-claim-board 0.1.0" and recorded["sha256"]
+
+
+def test_its_round_is_declared_and_plays_as_its_graph(claim_board, monkeypatch):
+    """Its graph is built from `claim_board_rounds`, and an episode awaiting the round's
+    functions directly is the episode its graph plays, claim conflicts included."""
+    from benchmark_adapter.tasks import load_tasks
+    from cocobench_agents.graphs import compiled_graph, planner_rounds
+    from tests.planners.test_rounds import comparable, play
+
+    rounds = planner_rounds(claim_board)
+    assert [s.name for s in rounds.steps] == ["claim_round", "land_round"]
+    assert list(compiled_graph(claim_board).builder.nodes) == ["claim_round", "land_round"]
+    config = next(c for c in load_tasks("demo") if len(c.agent_ids) == 3)
+    spec = EpisodeSpec(config, planner=claim_board, obs_mode="blind", max_steps=30,
+                       models={"*": "random:5", "agent_1": "random:9"})
+    (direct, _), (graph, _) = (play(spec, path, monkeypatch) for path in ("rounds", "graph"))
+    assert comparable(direct) == comparable(graph)
+    assert "claim_conflict" in {d["status"] for d in direct["planner_decisions"]}

@@ -257,3 +257,27 @@ def test_check_counts_a_package_that_does_not_load_as_failing(tmp_path, monkeypa
     captured = capsys.readouterr()
     assert captured.out.strip().splitlines()[-1].endswith(": needs-torch")
     assert "ImportError: No module named torch" in captured.err
+
+
+SEALED_BID = f"{ROOT / 'examples' / 'strategies' / 'sealed_bid.py'}:SEALED_BID"
+
+
+@pytest.mark.parametrize("planner", [FIRST_COME, SEALED_BID], ids=["first-come", "sealed-bid"])
+def test_an_example_strategy_declares_its_round_and_plays_it_as_its_graph(planner,
+                                                                            monkeypatch):
+    """Its graph is built from its declared round, and an episode awaiting the round's
+    functions directly is the episode its graph plays (robots contending, on 3 agents)."""
+    from benchmark_adapter.tasks import load_tasks
+    from cocobench_agents.episode_runner import EpisodeSpec
+    from cocobench_agents.graphs import compiled_graph, planner_rounds
+    from tests.planners.test_rounds import comparable, play
+
+    rounds = planner_rounds(planner)
+    assert rounds is not None
+    assert list(compiled_graph(planner).builder.nodes) == [s.name for s in rounds.steps]
+    config = next(c for c in load_tasks("demo") if len(c.agent_ids) == 3)
+    spec = EpisodeSpec(config, planner=planner, obs_mode="blind", max_steps=30,
+                       models={"*": "random:5", "agent_1": "random:9"})
+    (direct, _), (graph, _) = (play(spec, path, monkeypatch) for path in ("rounds", "graph"))
+    assert comparable(direct) == comparable(graph)
+    assert {d["status"] for d in direct["planner_decisions"]} & {"taken", "outbid"}
