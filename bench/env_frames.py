@@ -28,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from env_memory import random_actions  # (the bench folder is no package: on the path above)
+from env import random_actions  # (the bench folder is no package: on the path above)
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.sim.embedded import render

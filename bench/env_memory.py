@@ -20,13 +20,18 @@ from __future__ import annotations
 import argparse
 import collections
 import gc
+import sys
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 import psutil
 
 from cocobench_agents.envs import parallel_env
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from env import random_actions  # (the bench folder is no package: on the path above)
 
 
 def resident_mb() -> float:
@@ -38,18 +43,6 @@ def object_counts() -> collections.Counter:
     """Live objects the garbage collector tracks, by type name (after a full collection)."""
     gc.collect()
     return collections.Counter(type(o).__qualname__ for o in gc.get_objects())
-
-
-def random_actions(observations: dict, rng: np.random.Generator) -> dict:
-    """A random legal move per seat: a menu id on its mask (DONE only when nothing else is)."""
-    actions = {}
-    for seat, observation in observations.items():
-        ids = np.flatnonzero(observation["action_mask"]) - 1
-        menu = ids[1:] if len(ids) > 1 else ids
-        choice = int(menu[int(rng.integers(len(menu)))])
-        actions[seat] = choice if "sends_message" not in observation else \
-            {"action": choice, "message": ""}
-    return actions
 
 
 def grown(after: collections.Counter, before: collections.Counter, top: int) -> str:
