@@ -40,7 +40,8 @@ Box = tuple[float, float, float, float]
 PICTURES_KEPT = 64
 #: Each kept as [picture, its pixels (made when first asked for) or None].
 _pictures: OrderedDict[tuple, list] = OrderedDict()
-_pictures_lock = threading.Lock()
+#: Guards the kept pictures and labels (`_kept`).
+_kept_lock = threading.Lock()
 
 
 #: How many label measurements and rasterised labels the font keeps (each a few hundred bytes).
@@ -80,7 +81,6 @@ class _KeptLabelsFont(ImageFont.FreeTypeFont):
 
 _boxes: OrderedDict[tuple, Any] = OrderedDict()
 _masks: OrderedDict[tuple, Any] = OrderedDict()
-_labels_lock = threading.Lock()
 
 
 def _key(text, args: tuple, kwargs: dict) -> tuple:
@@ -92,17 +92,18 @@ def _key(text, args: tuple, kwargs: dict) -> tuple:
             tuple((name, hashable(value)) for name, value in sorted(kwargs.items())))
 
 
-def _kept(cache: OrderedDict, key: tuple, make) -> Any:
-    """`cache[key]`, made by `make()` when missing; the least recently used dropped past
-    `GLYPHS_KEPT`."""
-    with _labels_lock:
+def _kept(cache: OrderedDict, key: tuple, make, limit: int = GLYPHS_KEPT) -> Any:
+    """`cache[key]`, made by `make()` when missing (outside the lock: drawing is the slow
+    part); the least recently used dropped past `limit`. The pictures' and the labels'
+    caches alike."""
+    with _kept_lock:
         if key in cache:
             cache.move_to_end(key)
             return cache[key]
     value = make()
-    with _labels_lock:
+    with _kept_lock:
         cache[key] = value
-        while len(cache) > GLYPHS_KEPT:
+        while len(cache) > limit:
             cache.popitem(last=False)
     return value
 
@@ -329,18 +330,8 @@ def _kept_picture(view: dict, width: int, height: int) -> list:
     w, h = max(int(width), MIN_SIZE), max(int(height), MIN_SIZE)
     cam = _Camera(view, w, h)
     items = _visible_items(view, cam)
-    key = _picture_key(cam, items, view)
-    with _pictures_lock:
-        kept = _pictures.get(key)
-        if kept is not None:
-            _pictures.move_to_end(key)
-            return kept
-    kept = [_draw_view(view, cam, items), None]
-    with _pictures_lock:
-        _pictures[key] = kept
-        while len(_pictures) > PICTURES_KEPT:
-            _pictures.popitem(last=False)
-    return kept
+    return _kept(_pictures, _picture_key(cam, items, view),
+                 lambda: [_draw_view(view, cam, items), None], PICTURES_KEPT)
 
 
 def _picture_key(cam: _Camera, items: list[tuple[float, str, dict]], view: dict) -> tuple:
