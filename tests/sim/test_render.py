@@ -154,7 +154,10 @@ def test_merge_three_agents():
 def test_the_kept_labels_font_draws_as_freetype_does():
     """The renderer's font keeps each label it rasterised and measured (a frame drew each
     label afresh, three quarters of its time): what it gives back, first call or kept, is
-    FreeType's own result for those arguments, at every sub-pixel start a label is drawn at."""
+    FreeType's own result for those arguments, at every sub-pixel start a label is drawn at.
+    A mask is kept by the pixels its start rounds to, so the starts include those beside
+    the rounding boundaries (31.5 / 64 across, 32.5 / 64 down) and a mask kept at another
+    start of the same side must be the one FreeType draws."""
     import random
 
     from PIL import ImageDraw, ImageFont
@@ -163,10 +166,12 @@ def test_the_kept_labels_font_draws_as_freetype_does():
 
     kept, plain = _font(), ImageFont.load_default(size=12)
     rng = random.Random(7)
-    for text in ("Fridge (closed)", "Apple", "holding: Knife, Mug", "agent_2"):
+    edges = [edge + nudge for edge in (0.0, 31.5 / 64, 32.5 / 64, 63.5 / 64)
+             for nudge in (0.0, 1e-7, -1e-7, 0.02 / 64, -0.02 / 64) if edge + nudge >= 0]
+    for text in ("Fridge (closed)", "Apple", "holding: Knife, Mug", "agent_2", "AVA To Wa"):
         assert kept.getbbox(text) == plain.getbbox(text)
-        for _ in range(40):
-            start = (rng.choice([0.0, 0.5, rng.random()]), rng.choice([0.0, rng.random()]))
+        for _ in range(120):
+            start = (rng.choice([*edges, rng.random()]), rng.choice([*edges, rng.random()]))
             for _ in range(2):  # drawn, then kept
                 mask, offset = kept.getmask2(text, "L", anchor="lt", start=start)
                 expected, expected_offset = plain.getmask2(text, "L", anchor="lt", start=start)
