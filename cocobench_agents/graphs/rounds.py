@@ -131,11 +131,10 @@ async def play_rounds(rounds: Rounds, state: Mapping[str, Any], context: Any, *,
     directly; each step is one of LangGraph's supersteps, and more than `limit` of them raise
     `EndlessLoop` naming the last nodes. `checked`: each update is checked as the node
     returns it (a strategy's code; `node_errors.update_problem`)."""
-    from langgraph.runtime import Runtime
-
     from cocobench_agents.graphs.node_errors import LAST_NODES, EndlessLoop
+    from cocobench_agents.graphs.runtime import RoundRuntime
 
-    runtime = Runtime(context=context)
+    runtime = RoundRuntime(context=context)
     reducers, defaults = _channels(rounds.state)
     values = {**defaults, **state}
     ran: deque[str] = deque(maxlen=LAST_NODES)
