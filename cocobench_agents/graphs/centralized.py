@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from langgraph.runtime import Runtime
-
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decision import decide
 from cocobench_agents.graphs.nodes import observe_next
@@ -13,8 +11,9 @@ from cocobench_agents.graphs.rounds import Node, Rounds
 from cocobench_agents.graphs.state import TEAM, PlannerState, team_history
 from cocobench_agents.prompts import history_line
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # types only: the plain loop passes a `runtime.RoundRuntime`
     from langgraph.graph import StateGraph
+    from langgraph.runtime import Runtime
 
 POLICY = "centralized_vlm"
 

@@ -6,24 +6,28 @@ With `broadcast` (D1) each agent may add a `MSG:` line that its teammates read n
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
-
-from langgraph.graph import END, StateGraph
-from langgraph.runtime import Runtime
-from langgraph.types import Send
+from typing import TYPE_CHECKING, Any
 
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decision import decide
 from cocobench_agents.graphs.nodes import land_round
 from cocobench_agents.graphs.rounds import FanOut, Node, Rounds
+from cocobench_agents.graphs.runtime import END
 from cocobench_agents.graphs.state import PlannerState
+
+if TYPE_CHECKING:  # types only: the plain loop passes a `runtime.RoundRuntime`
+    from langgraph.graph import StateGraph
+    from langgraph.runtime import Runtime
+    from langgraph.types import Send
 
 POLICY = "distributed_vlm"
 
 
-async def fan_out(state: PlannerState) -> list[Send] | str:
-    """One `decide_agent` branch per agent, each with only what that agent may know (a
-    router for a strategy's own graph; `decentralized_rounds` declares the built-ins')."""
+async def fan_out(state: PlannerState) -> list[Any] | str:
+    """One `decide_agent` branch per agent (LangGraph's `Send`s), each with only what that
+    agent may know (a router for a strategy's own graph; `decentralized_rounds` declares the
+    built-ins'). Its hints name no LangGraph type: LangGraph reads a router's hints, and this
+    module imports LangGraph only where a graph is built."""
     if state.get("terminal_reason"):
         return END
     return round_branches(state, state.get("messages") or [])
@@ -32,6 +36,8 @@ async def fan_out(state: PlannerState) -> list[Send] | str:
 def round_branches(state: PlannerState, boards: Sequence[dict[str, Any]] | Mapping[
         str, Sequence[dict[str, Any]]]) -> list[Send]:
     """The round's `decide_agent` branches (`branch_inputs`) as LangGraph's `Send`s."""
+    from langgraph.types import Send
+
     return [Send("decide_agent", branch) for branch in branch_inputs(state, boards)]
 
 

@@ -12,8 +12,6 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from langgraph.runtime import Runtime
-
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.decentralized import branch_inputs, make_decide_agent
 from cocobench_agents.graphs.decision import accepts_images
@@ -25,8 +23,9 @@ from cocobench_agents.models.protocol import ModelError, ModelReply, ModelReques
 from cocobench_agents.prompts import history_line
 from cocobench_agents.tools import EpisodeTools, prompt_hash, reply_fields
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # types only: the plain loop passes a `runtime.RoundRuntime`
     from langgraph.graph import StateGraph
+    from langgraph.runtime import Runtime
 
 POLICY = "leader"
 DIRECTIVE = re.compile(r"^\s*(agent_\d+)\s*:\s*(.+?)\s*$", re.MULTILINE)

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Any
-
-from langgraph.graph import END
-from langgraph.runtime import Runtime
+from typing import TYPE_CHECKING, Any
 
 from cocobench_agents.graphs.context import PlannerContext
+from cocobench_agents.graphs.runtime import END
 from cocobench_agents.graphs.state import PlannerState
 from cocobench_agents.prompts import history_line
 from cocobench_agents.tools import stop_decision
+
+if TYPE_CHECKING:  # a type only: the plain loop passes a `runtime.RoundRuntime`
+    from langgraph.runtime import Runtime
 
 
 def observe_next(ctx: PlannerContext, state: PlannerState) -> dict[str, Any]:

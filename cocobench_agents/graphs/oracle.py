@@ -7,8 +7,6 @@ from collections.abc import Generator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from langgraph.runtime import Runtime
-
 from benchmark_adapter.oracles import oracle_plan
 from benchmark_adapter.skills import SkillResult
 from cocobench_agents.graphs.context import PlannerContext
@@ -17,8 +15,9 @@ from cocobench_agents.graphs.rounds import Node, Rounds
 from cocobench_agents.graphs.state import PlannerState
 from cocobench_agents.tools import EpisodeTools, stop_decision
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # types only: the plain loop passes a `runtime.RoundRuntime`
     from langgraph.graph import StateGraph
+    from langgraph.runtime import Runtime
 
 POLICY = "oracle"
 

@@ -1,11 +1,11 @@
 """The check a planner from the researcher's code passes before any episode of a run.
 
-It compiles, it declares no runtime context other than `PlannerContext`, and one episode on
-a demo instance with the `greedy` model ends with a recorded terminal reason, every request
-it sends one an OpenAI-compatible server takes (`models.chat_schema`: roles, content parts,
-images; greedy itself never reads them). A planner that fails is a `PlannerError` (exit 2)
-saying what is wrong, before anything is written; the run never records a hundred identical
-crashes instead.
+It builds (its rounds, or a graph that declares no runtime context other than
+`PlannerContext`), and one episode on a demo instance with the `greedy` model ends with a
+recorded terminal reason, every request it sends one an OpenAI-compatible server takes
+(`models.chat_schema`: roles, content parts, images; greedy itself never reads them). A
+planner that fails is a `PlannerError` (exit 2) saying what is wrong, before anything is
+written; the run never records a hundred identical crashes instead.
 """
 
 from __future__ import annotations
@@ -19,7 +19,13 @@ from pathlib import Path
 from benchmark_adapter.tasks import load_tasks
 from benchmark_adapter.vocabulary import BLIND, DEMO_SUITE
 from cocobench_agents.episode_runner import EpisodeSpec, run_episode
-from cocobench_agents.graphs import PlannerContext, PlannerError, compiled_graph
+from cocobench_agents.graphs import (
+    PlannerContext,
+    PlannerError,
+    compiled_graph,
+    planner_rounds,
+    planner_spec,
+)
 from cocobench_agents.graphs.node_errors import EndlessLoop, PlannerNodeError
 from cocobench_agents.graphs.plugins import LoadedPlanner, describe_error, user_planners
 from cocobench_agents.models import ModelClient, ModelError, ModelPool, ModelReply, ModelRequest
@@ -50,17 +56,7 @@ def _version(loaded: LoadedPlanner) -> tuple[str, str | None]:
 
 
 async def _check(name: str) -> None:
-    try:
-        graph = compiled_graph(name)
-    except PlannerError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - the user's build function may raise anything
-        raise PlannerError(f"planner {name}: building its graph failed: {describe_error(exc)}"
-                           ) from None
-    schema = getattr(graph, "context_schema", None)
-    if schema is not None and not issubclass(PlannerContext, schema):
-        raise PlannerError(f"planner {name}: its graph declares context_schema="
-                           f"{schema.__name__}; planner graphs run with PlannerContext")
+    _build(name)
     config = next(t for t in load_tasks(DEMO_SUITE) if t.task_id == CHECK_TASK)
     spec = EpisodeSpec(config, planner=name, models={"*": "greedy"}, obs_mode=BLIND)
     pool = CheckingPool()
@@ -84,6 +80,26 @@ async def _check(name: str) -> None:
         raise PlannerError(f"planner {name}: its check episode ({CHECK_TASK}, greedy) ended "
                            "without a recorded terminal reason; end through land_round or "
                            "observe_next, or record the stop with ctx.tools.stop(decision)")
+
+
+def _build(name: str) -> None:
+    """Build the planner as its episodes play it: its rounds, or for a strategy that gives
+    just a graph, the compiled graph, whose runtime context must be `PlannerContext` (a
+    round's graph is built with it). Only the graph imports LangGraph."""
+    try:
+        if planner_rounds(name) is not None:
+            return
+        graph = compiled_graph(name)
+    except PlannerError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the user's build function may raise anything
+        what = "rounds" if planner_spec(name).rounds is not None else "graph"
+        raise PlannerError(f"planner {name}: building its {what} failed: "
+                           f"{describe_error(exc)}") from None
+    schema = getattr(graph, "context_schema", None)
+    if schema is not None and not issubclass(PlannerContext, schema):
+        raise PlannerError(f"planner {name}: its graph declares context_schema="
+                           f"{schema.__name__}; planner graphs run with PlannerContext")
 
 
 def _refuse_what_a_server_refuses(name: str, pool: CheckingPool) -> None:

@@ -35,7 +35,7 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.graphs import compiled_graph
+from cocobench_agents.graphs import compiled_graph, planner_rounds
 from cocobench_agents.harness.batch import (
     described,
     infra_error_record,
@@ -467,17 +467,21 @@ async def _beat(heartbeat: Any) -> None:
 
 
 def _warm_up(episodes: Sequence[PlannedEpisode]) -> None:
-    """Compile the plan's planner graphs here, before the workers fork, so that each inherits
-    them instead of importing LangGraph and compiling on its own (a worker's first episode
-    took 7.7 s instead of 0.35 s on a busy 2-core machine: all of it this)."""
+    """Build the plan's planners here, before the workers fork, so that each inherits them
+    instead of building its own (a worker's first episode took 7.7 s instead of 0.35 s on a
+    busy 2-core machine when each imported LangGraph and compiled). A planner that declares
+    its rounds is played without LangGraph (`planner_rounds`): only a strategy that gives
+    just a graph is compiled, and only then is LangGraph imported."""
     if _context().get_start_method() == "fork":
         for planner in dict.fromkeys(p.spec.planner for p in episodes):
-            compiled_graph(planner)
+            if planner_rounds(planner) is None:
+                compiled_graph(planner)
 
 
 def _context() -> multiprocessing.context.BaseContext:
-    # Fork where there is one: the parent has imported LangGraph and the clients already
-    # (seconds per spawned worker otherwise), and a forked worker inherits the plan.
+    # Fork where there is one: the parent has built the planners (and for a graph-only
+    # strategy imported LangGraph) and the clients already (seconds per spawned worker
+    # otherwise), and a forked worker inherits the plan.
     methods = multiprocessing.get_all_start_methods()
     return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
 
