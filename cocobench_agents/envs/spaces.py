@@ -158,7 +158,9 @@ class SeatSpaces:
 
     def _image(self, frames: list[np.ndarray]) -> np.ndarray:
         if self.seat in (TEAM_SEAT, LEADER_SEAT):
-            out = np.zeros(self.image_shape, np.uint8)
+            if len(frames) == self.image_shape[0]:
+                return np.stack(frames)  # every slot filled: no zeros written first
+            out = np.zeros(self.image_shape, np.uint8)  # robots past this task's stay black
             for i, array in enumerate(frames):
                 out[i] = array
             return out
