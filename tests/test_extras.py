@@ -163,3 +163,42 @@ def test_the_processes_tests_start_hear_ctrl_c():
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                           timeout=60)
     assert done.stdout.strip() == "True"
+
+
+SLOW_ONE = """
+import pytest
+
+@pytest.mark.slow
+def test_end_to_end():
+    pass
+
+def test_quick():
+    pass
+"""
+
+
+def test_a_slow_test_skips_saying_how_to_run_it(session):
+    # The README's command leaves the end-to-end tests to CI, and says so in the summary.
+    session.makepyfile(SLOW_ONE)
+    result = session.runpytest("-rs")
+    result.assert_outcomes(passed=1, skipped=1)
+    result.stdout.fnmatch_lines(["*marked slow: python -m pytest --slow runs it*"])
+
+
+@pytest.mark.parametrize("asked", [["--slow"], ["-m", "slow"], ["-m", "slow or not slow"]])
+def test_slow_tests_run_when_asked_for(session, asked):
+    session.makepyfile(SLOW_ONE)
+    outcomes = session.runpytest(*asked).parseoutcomes()
+    assert outcomes.get("skipped", 0) == 0 and outcomes["passed"] == (1 if asked == ["-m", "slow"]
+                                                                       else 2)
+
+
+def test_ci_runs_the_slow_tests_the_readme_command_skipped(session, monkeypatch, tmp_path):
+    # .ci/run: the README's command records what skipped; step 2 runs it with `--slow`.
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    session.makepyfile(SLOW_ONE)
+    record = tmp_path / "skipped.txt"
+    session.runpytest("-p", "xdist", "-n", "1", "--record-skipped", str(record))
+    assert record.read_text().endswith("::test_end_to_end\n")
+    session.runpytest("-p", "xdist", "-n", "1", "--slow", "--fail-on-skip",
+                      f"@{record}").assert_outcomes(passed=1)
