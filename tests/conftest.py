@@ -17,6 +17,7 @@ import sysconfig
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -94,9 +95,10 @@ EXTRAS = (
 
 
 # The README's command is a newcomer's first check, under 5 minutes on 2 cores (issue 39): the
-# end-to-end tests (each more than about 3 s, together about twice the rest) skip there, saying
-# how to run them; CI runs them right after, with every extra (.ci/run step 2).
+# end-to-end tests (each more than about 3 s, together about twice the rest) skip in a bare
+# `pytest`, saying how to run them; CI runs them right after, with every extra (.ci/run step 2).
 SLOW_REASON = "an end-to-end test marked slow: python -m pytest --slow runs it (CI does)"
+RUNS_SLOW = "cocobench_runs_slow"
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -114,7 +116,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     """Skip each test whose extra is missing, with the reason (each extra is checked once),
     and each slow one unless asked for."""
     reasons: dict[str, str | None] = {}
-    run_slow = config.getoption("slow") or "slow" in (config.getoption("markexpr") or "")
+    run_slow = runs_slow(config)
     for item in items:
         if not run_slow and item.get_closest_marker("slow") is not None:
             item.add_marker(pytest.mark.skip(reason=SLOW_REASON))
@@ -126,6 +128,23 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             if reasons[extra.marker] is not None:
                 item.add_marker(pytest.mark.skip(reason=reasons[extra.marker]))
     slow_modules_first(items)
+
+
+def runs_slow(config: pytest.Config) -> bool:
+    """Whether this session runs the slow tests: asked for (`--slow`, `-m` naming them), or
+    tests named on the command line (a file, a folder, a test id: what you name runs). The
+    README's bare command runs the configured paths. Under xdist the controller decides."""
+    if hasattr(config, "workerinput"):
+        return config.workerinput[RUNS_SLOW]
+    return (config.getoption("slow") or "slow" in (config.getoption("markexpr") or "")
+            or config.args_source is pytest.Config.ArgsSource.ARGS)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node: Any) -> None:
+    """Tell each xdist worker the controller's `runs_slow` (a worker is given the paths as
+    arguments, so it cannot tell a bare command from named tests)."""
+    node.workerinput[RUNS_SLOW] = runs_slow(node.config)
 
 
 def slow_modules_first(items: list[pytest.Item]) -> None:

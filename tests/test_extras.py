@@ -153,7 +153,7 @@ def test_ci_runs_the_readme_test_command_first_in_a_fresh_venv():
     fresh_venv, readme_command = ci.index("python -m venv"), ci.index(README_TEST_COMMAND)
     extras_installed = ci.index("pip_install -e '.[dev,thor,ray]'")
     assert fresh_venv < readme_command < extras_installed
-    assert ci.index("python -m pytest --fail-on-skip") > extras_installed
+    assert ci.index("python -m pytest --slow --fail-on-skip") > extras_installed
 
 
 def test_the_processes_tests_start_hear_ctrl_c():
@@ -177,17 +177,21 @@ def test_quick():
 """
 
 
-def test_a_slow_test_skips_saying_how_to_run_it(session):
-    # The README's command leaves the end-to-end tests to CI, and says so in the summary.
+@pytest.mark.parametrize("workers", [[], ["-p", "xdist", "-n", "1"]])
+def test_a_slow_test_skips_saying_how_to_run_it(session, workers):
+    # The README's bare command leaves the end-to-end tests to CI, and says so in the summary.
     session.makepyfile(SLOW_ONE)
-    result = session.runpytest("-rs")
+    result = session.runpytest("-rs", *workers)
     result.assert_outcomes(passed=1, skipped=1)
     result.stdout.fnmatch_lines(["*marked slow: python -m pytest --slow runs it*"])
 
 
-@pytest.mark.parametrize("asked", [["--slow"], ["-m", "slow"], ["-m", "slow or not slow"]])
-def test_slow_tests_run_when_asked_for(session, asked):
-    session.makepyfile(SLOW_ONE)
+@pytest.mark.parametrize("asked", [["--slow"], ["-m", "slow"], ["-m", "slow or not slow"],
+                                   ["NAMED"], ["-p", "xdist", "-n", "1", "NAMED"]])
+def test_slow_tests_run_when_asked_for_or_named(session, asked):
+    # A bare `pytest` skips them; naming a file (or a test) runs what it names.
+    path = session.makepyfile(SLOW_ONE)
+    asked = [str(path) if arg == "NAMED" else arg for arg in asked]
     outcomes = session.runpytest(*asked).parseoutcomes()
     assert outcomes.get("skipped", 0) == 0 and outcomes["passed"] == (1 if asked == ["-m", "slow"]
                                                                        else 2)
