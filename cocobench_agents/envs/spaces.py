@@ -158,11 +158,12 @@ class SeatSpaces:
 
     def _image(self, frames: list[np.ndarray]) -> np.ndarray:
         if self.seat in (TEAM_SEAT, LEADER_SEAT):
-            if len(frames) == self.image_shape[0]:
-                return np.stack(frames)  # every slot filled: no zeros written first
-            out = np.zeros(self.image_shape, np.uint8)  # robots past this task's stay black
+            # Each pixel written once: the robots' frames, then black for the slots past
+            # this task's robots (zeroing the whole array first cost a tenth of a C0 step).
+            out = np.empty(self.image_shape, np.uint8)
             for i, array in enumerate(frames):
                 out[i] = array
+            out[len(frames):] = 0
             return out
         # A copy: the episode keeps its frame for the step (and a reset to the same state
         # finds it again), and each observation must own its data (Gymnasium's check_env).
