@@ -80,6 +80,7 @@ def test_keys_come_from_dotenv_without_overriding_the_environment(tmp_path, monk
     monkeypatch.delenv("COCO_TEST_KEY_A")
 
 
+@pytest.mark.slow
 def test_the_cli_reads_dotenv_in_the_working_directory(tmp_path):
     (tmp_path / ".env").write_text("OPENAI_API_KEY=sk-from-dotenv-123\n")
     out = tmp_path / "run"

@@ -165,8 +165,9 @@ def test_a_setting_that_is_not_a_finite_number_is_refused(capsys, tmp_path: Path
 
 
 @pytest.mark.parametrize("text", [
-    "models: " + "[" * 10_000 + "]" * 10_000,
-    "selection:\n  sources: " + "[" * 10_000 + "]" * 10_000,
+    pytest.param("models: " + "[" * 10_000 + "]" * 10_000, marks=pytest.mark.slow),
+    pytest.param("selection:\n  sources: " + "[" * 10_000 + "]" * 10_000,
+                 marks=pytest.mark.slow),
     "models: " + "[" * 100 + "]" * 100,
     "".join(f"{' ' * i}k{i}:\n" for i in range(3_000)),
 ], ids=["list-10000", "nested-list-10000", "list-100", "mapping-3000"])

@@ -43,6 +43,7 @@ WHO_IMPORTS_FRONT_ENDS = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_the_engine_imports_no_front_end(tmp_path):
     done = subprocess.run([sys.executable, "-c", WHO_IMPORTS_FRONT_ENDS, str(tmp_path / "r")],
                           capture_output=True, text=True, timeout=300, check=True)
@@ -116,6 +117,7 @@ def test_a_dry_run_calls_nothing_and_bounds_the_real_run(tmp_path, capsys):
     assert estimate["total"]["cost_usd"]["low"] <= estimate["total"]["cost_usd"]["high"]
 
 
+@pytest.mark.slow
 def test_a_dry_run_of_a_resumed_run_counts_what_is_left(tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["run", "--suite", "demo", "--model", "greedy", "--max-steps", "2",

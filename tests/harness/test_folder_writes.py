@@ -95,6 +95,7 @@ def _mount_tmpfs(path: Path, size: str) -> None:
         pytest.skip(f"cannot mount a small tmpfs here ({done.stderr.strip()})")
 
 
+@pytest.mark.slow
 def test_a_real_full_disk_stops_the_run_and_resume_completes_it(tmp_path):
     disk = tmp_path / "disk"
     _mount_tmpfs(disk, "1m")  # room for a few trajectories of the 24

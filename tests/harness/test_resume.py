@@ -55,6 +55,7 @@ def reference_run(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_a_killed_and_resumed_run_equals_an_uninterrupted_one(reference_run, tmp_path):
     out = tmp_path / "killed"
     process = start_and_wait_for_results(out, "--jobs", "2")
@@ -89,6 +90,7 @@ def test_results_do_not_depend_on_worker_processes(reference_run, tmp_path):
 
 @pytest.mark.skipif(not Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").exists(),
                     reason="needs Linux /proc child lists")
+@pytest.mark.slow
 def test_killing_the_parent_kills_its_workers_and_resume_completes(reference_run, tmp_path):
     out = tmp_path / "killed-workers"
     process = start_and_wait_for_results(out, "--jobs", "2", "--workers", "2")

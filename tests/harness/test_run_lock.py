@@ -45,6 +45,7 @@ def keys(out: Path) -> list[tuple]:
     return [(r["model"], r["condition"], r["task_id"], r["epoch"]) for r in lines]
 
 
+@pytest.mark.slow
 def test_a_second_process_exits_2_naming_the_holder(tmp_path):
     out = tmp_path / "run"
     holder = start_run(out, "--suite", "cocobench-240")  # 1,440 episodes: still running
@@ -61,6 +62,7 @@ def test_a_second_process_exits_2_naming_the_holder(tmp_path):
     assert len(recorded) == len(set(recorded))  # nothing ran twice
 
 
+@pytest.mark.slow
 def test_a_killed_holders_lock_is_taken_over_and_the_run_completed(tmp_path):
     out = tmp_path / "run"
     holder = start_run(out, "--suite", "demo", results=3)

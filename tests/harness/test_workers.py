@@ -65,6 +65,7 @@ def test_jobs_and_model_limits_are_shared_out():
     assert [share(1, i, 2) for i in range(2)] == [1, 1]  # never below one
 
 
+@pytest.mark.slow
 def test_a_slow_episode_holds_back_only_itself(tmp_path):
     """Pulled, not dealt: while one worker (one slot each) waits on the slow episode, the
     other takes every other episode (dealt in turn, longest first, the slow one's worker

@@ -55,6 +55,7 @@ def _start(bundle: Path, out: Path, **options) -> subprocess.Popen:
                             **options)
 
 
+@pytest.mark.slow
 def test_two_at_once_leave_one_whole_site_and_one_clear_refusal(bundle, alone, tmp_path):
     out = tmp_path / "site"
     first, second = _start(bundle, out), _start(bundle, out)
@@ -76,6 +77,7 @@ def test_one_after_another_keeps_the_first_site_whole(bundle, alone, tmp_path, c
     assert sorted(p.name for p in tmp_path.iterdir()) == ["site"]
 
 
+@pytest.mark.slow
 def test_a_leaderboard_killed_mid_way_leaves_no_site(bundle, alone, tmp_path):
     out = tmp_path / "site"
     process = _start(bundle, out, start_new_session=True)
@@ -89,6 +91,7 @@ def test_a_leaderboard_killed_mid_way_leaves_no_site(bundle, alone, tmp_path):
     assert contents(out) == alone
 
 
+@pytest.mark.slow
 def test_a_full_disk_is_one_line_and_leaves_nothing(bundle, tmp_path):
     disk = tmp_path / "disk"
     _mount(disk, "size=64k")  # smaller than the site (its pages)

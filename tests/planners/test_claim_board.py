@@ -51,6 +51,7 @@ def test_its_spec_declares_its_shape(claim_board):
     assert spec.declares_loop and spec.most_calls(agent_count=2, budget=3) == 12
 
 
+@pytest.mark.slow
 def test_its_dry_run_is_exact_against_a_real_run(claim_board, demo, tmp_path):
     """The estimate from the spec's declared shape, against the calls a run with a remote
     model (the fake OpenAI server) sends: no more than max_calls, and a first round of the

@@ -16,6 +16,7 @@ from .conftest import run
 
 CONFIGS = load_tasks(SHARED_TASKS) if SHARED_TASKS.exists() else []
 PLANNERS = ("centralized", "decentralized", "decentralized-broadcast")
+pytestmark = pytest.mark.slow  # 36 configs × 12 episodes: about 2 s a config
 
 
 @pytest.mark.skipif(not CONFIGS, reason=f"shared configs not found at {SHARED_TASKS}")
