@@ -11,8 +11,12 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from cocobench_agents.verify.run import PARALLEL_FROM
 from tests.readers.test_reader_faults import ROOT
+
+pytestmark = pytest.mark.slow  # a many-episode bundle packed, verify started and killed
 
 
 def _start_verify(bundle: Path, tmp: Path) -> subprocess.Popen:
