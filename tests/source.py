@@ -1,5 +1,7 @@
 """Reading the packages' own source, for the tests that check it (layers, vocabulary, planner
-names): every module by name, and the docstrings a rule about literals leaves aside."""
+names, the team's seat): every module by name, its syntax tree and nodes (parsed once per test
+process, shared by those tests: a parse of both packages is about a second), and the
+docstrings a rule about literals leaves aside."""
 
 from __future__ import annotations
 
@@ -22,6 +24,19 @@ def modules() -> dict[str, Path]:
     return found
 
 
+@cache
+def syntax(module: str) -> ast.Module:
+    """The syntax tree of `module` (a dotted name of `modules()`); read-only, shared."""
+    path = modules()[module]
+    return ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
+@cache
+def nodes(module: str) -> tuple[ast.AST, ...]:
+    """Every node of `module`'s tree, in `ast.walk`'s order."""
+    return tuple(ast.walk(syntax(module)))
+
+
 def docstrings(tree: ast.Module) -> list[ast.Constant]:
     """The docstring constants of a module and of its classes and functions."""
     out = []
@@ -31,3 +46,9 @@ def docstrings(tree: ast.Module) -> list[ast.Constant]:
             if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
                 out.append(first.value)
     return out
+
+
+@cache
+def docstring_ids(module: str) -> frozenset[int]:
+    """The `id`s of `module`'s docstring constants (nodes of its shared `syntax` tree)."""
+    return frozenset(id(node) for node in docstrings(syntax(module)))

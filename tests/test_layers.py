@@ -18,7 +18,7 @@ from functools import cache
 
 import pytest
 
-from tests.source import PACKAGES, modules
+from tests.source import PACKAGES, modules, nodes, syntax
 
 # The layer tables: each row is a layer, the top one first; each entry a unit (a module or
 # subpackage, named relative to its package; `__init__` is the package's own `__init__`). A
@@ -107,18 +107,12 @@ def ours(dotted: str) -> str | None:
 
 
 @cache
-def syntax(module: str) -> ast.Module:
-    return ast.parse(modules()[module].read_text(), str(modules()[module]))
-
-
-@cache
 def imports() -> tuple[Import, ...]:
     return tuple(i for module in modules() for i in imports_of(module))
 
 
 def imports_of(module: str) -> Iterator[Import]:
-    tree = syntax(module)
-    for node in ast.walk(tree):
+    for node in nodes(module):
         if isinstance(node, ast.Import):
             for alias in node.names:
                 yield Import(module, node.lineno, ours(alias.name) or alias.name)
@@ -126,7 +120,7 @@ def imports_of(module: str) -> Iterator[Import]:
             source = from_source(module, node)
             for alias in node.names:
                 yield from_import(module, node.lineno, source, alias.name)
-    yield from lazy_exports(module, tree)
+    yield from lazy_exports(module, syntax(module))
 
 
 def from_source(module: str, node: ast.ImportFrom) -> str:
@@ -295,24 +289,23 @@ def is_private(name: str) -> bool:
 def private_uses(module: str) -> Iterator[str]:
     """`from M import _x`, and `m._x` on a module `m` bound by an import, where M (m) is a
     module of another subpackage than `module`'s."""
-    foreign = {i.target for i in imports_of(module)
+    found = tuple(imports_of(module))
+    foreign = {i.target for i in found
                if i.target in modules() and subpackage(i.target) != subpackage(module)}
-    for i in imports_of(module):
+    for i in found:
         if i.target in foreign and i.name and is_private(i.name):
             yield f"{i} (private)"
-    tree = syntax(module)
-    bound = {name: target for name, target in module_bindings(module, tree)
-             if target in foreign}
-    for node in ast.walk(tree):
+    bound = {name: target for name, target in module_bindings(module) if target in foreign}
+    for node in nodes(module):
         if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
                 and node.value.id in bound and is_private(node.attr)):
             yield (f"{module} (line {node.lineno}) uses {bound[node.value.id]}.{node.attr} "
                    "(private)")
 
 
-def module_bindings(module: str, tree: ast.Module) -> Iterator[tuple[str, str]]:
+def module_bindings(module: str) -> Iterator[tuple[str, str]]:
     """(local name, module) for each module of the packages an import binds to a name."""
-    for node in ast.walk(tree):
+    for node in nodes(module):
         if isinstance(node, ast.Import):
             for alias in node.names:
                 if alias.asname and alias.name in modules():

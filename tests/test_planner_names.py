@@ -16,9 +16,10 @@ reference plan.
 from __future__ import annotations
 
 import ast
+from collections.abc import Set
 
 from cocobench_agents.graphs import PLANNERS
-from tests.source import ROOT, docstrings
+from tests.source import ROOT, docstring_ids, docstrings, modules, syntax
 
 PACKAGE = ROOT / "cocobench_agents"
 GRAPHS = PACKAGE / "graphs"
@@ -46,20 +47,22 @@ def f():
     """oracle"""
     return "the oracle's plan"  # prose
 '''
-    assert names_in(source, cli=False) == [(3, "leader-worker"), (4, "oracle")]
-    assert names_in(source, cli=True) == [(3, "leader-worker")]
+    tree = ast.parse(source)
+    skipped = {id(node) for node in docstrings(tree)}
+    assert names_in(tree, skipped, cli=False) == [(3, "leader-worker"), (4, "oracle")]
+    assert names_in(tree, skipped, cli=True) == [(3, "leader-worker")]
 
 
 def test_no_built_in_planner_is_named_outside_the_graphs():
     assert {"centralized", "decentralized", "decentralized-broadcast", "leader-worker",
             "oracle"} <= NAMES
     found, allowed = [], set()
-    for path in sorted(PACKAGE.rglob("*.py")):
-        if GRAPHS in path.parents:
+    for dotted, path in modules().items():
+        if PACKAGE not in path.parents or GRAPHS in path.parents:
             continue
         module = path.relative_to(ROOT).as_posix()
         cli = (PACKAGE / "cli") in path.parents
-        for line, name in names_in(path.read_text(encoding="utf-8"), cli=cli):
+        for line, name in names_in(syntax(dotted), docstring_ids(dotted), cli=cli):
             if (module, name) in OTHER_MEANINGS:
                 allowed.add((module, name))
             else:
@@ -70,11 +73,11 @@ def test_no_built_in_planner_is_named_outside_the_graphs():
     assert allowed == set(OTHER_MEANINGS), "an exception no longer needed: remove it"
 
 
-def names_in(source: str, *, cli: bool) -> list[tuple[int, str]]:
-    """(line, name) of every string constant of `source` that is a built-in planner's name,
-    docstrings and (with `cli`) `help=` arguments left out."""
-    tree = ast.parse(source)
-    skipped = {id(node) for node in docstrings(tree)}
+def names_in(tree: ast.Module, docstring_nodes: Set[int], *, cli: bool
+             ) -> list[tuple[int, str]]:
+    """(line, name) of every string constant of `tree` that is a built-in planner's name,
+    its docstrings (the `id`s of their nodes) and (with `cli`) `help=` arguments left out."""
+    skipped = set(docstring_nodes)
     if cli:
         skipped |= {id(node) for node in _help_text(tree)}
     return sorted((node.lineno, node.value) for node in ast.walk(tree)

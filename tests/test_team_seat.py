@@ -11,7 +11,7 @@ from cocobench_agents.graphs import TEAM, PlannerContext
 from cocobench_agents.graphs.registry import TEAM_SEAT as REGISTRY_TEAM
 from cocobench_agents.models import ModelPool
 from cocobench_agents.models.protocol import TEAM_SEAT
-from tests.source import modules
+from tests.source import modules, nodes
 
 
 def test_every_name_of_the_team_is_the_one_constant():
@@ -34,9 +34,8 @@ def test_no_module_spells_the_team_another_way():
     """The old history key of planner state, "__team__", is gone (the scripted format's
     old "centralized" key is read only as an alias: tests/models/test_builtin.py)."""
     spelled = []
-    for name, path in modules().items():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-        for node in ast.walk(tree):
+    for name in modules():
+        for node in nodes(name):
             if isinstance(node, ast.Constant) and node.value == "__team__":
                 spelled.append(f"{name}:{node.lineno}")
     assert spelled == []

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import ast
 from collections.abc import Iterator
+from functools import cache
 
 import pytest
 
@@ -35,7 +36,7 @@ from benchmark_adapter.vocabulary import (
     DIMENSIONS,
     OBSERVATION_MODES,
 )
-from tests.source import docstrings, modules
+from tests.source import docstring_ids, modules, nodes
 
 HOME = "benchmark_adapter.vocabulary"
 WORDS = (*OBSERVATION_MODES, *DIMENSIONS, *BACKEND_NAMES, *BUILTIN_SUITES)
@@ -69,20 +70,20 @@ def spelled(text: str) -> Iterator[str]:
         yield from (mode for mode in OBSERVATION_MODES if text.endswith(f"_{mode}"))
 
 
-def spellings() -> dict[tuple[str, str], list[int]]:
+@cache
+def spellings() -> dict[tuple[str, str], tuple[int, ...]]:
     """(module, word) → the lines where a module other than the vocabulary spells the word."""
     found: dict[tuple[str, str], list[int]] = {}
-    for module, path in modules().items():
+    for module in modules():
         if module == HOME:
             continue
-        tree = ast.parse(path.read_text(), str(path))
-        skip = {id(node) for node in docstrings(tree)}
-        for node in ast.walk(tree):
+        skip = docstring_ids(module)
+        for node in nodes(module):
             if isinstance(node, ast.Constant) and isinstance(node.value, str) \
                     and id(node) not in skip:
                 for word in spelled(node.value):
                     found.setdefault((module, word), []).append(node.lineno)
-    return found
+    return {key: tuple(lines) for key, lines in found.items()}
 
 
 def test_each_word_is_spelled_in_the_vocabulary_only():
