@@ -3,15 +3,15 @@ pages, and write the site of its rows."""
 
 from __future__ import annotations
 
-import secrets
-import shutil
-from collections.abc import Mapping, Sequence
+import contextlib
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from cocobench_agents.leaderboard.rows import Row, rank, rows_of
 from cocobench_agents.leaderboard.site import write_site
+from cocobench_agents.partial_output import staged_beside
 from cocobench_agents.runfolder import RunFolder
 from cocobench_agents.verify import RunVerification, VerifyError, reference_configs
 from cocobench_agents.verify.run import opened, verify_opened
@@ -49,16 +49,13 @@ def build_leaderboard(sources: Sequence[str | Path], out: str | Path, *,
     out = Path(out)
     _check_new_or_empty(out)
     reference = reference_configs() if reference is None else reference
-    staging = _staging_folder(out)
-    try:
+    with _staging_folder(out) as staging:
         rows, verifications = _write_sources(sources, staging, out, reference, jobs)
         try:
             write_site(rows, staging)
         except OSError as exc:
             raise SiteWriteError(f"cannot write {out}: {exc.strerror or exc}") from None
         _publish(staging, out)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
     return Leaderboard(out / "index.html", rows, verifications)
 
 
@@ -67,15 +64,16 @@ def _check_new_or_empty(out: Path) -> None:
         raise VerifyError(f"{out}: the site folder exists and is not empty (choose a new one)")
 
 
-def _staging_folder(out: Path) -> Path:
-    """A new hidden folder beside `out` (the same file system: renamed in one step)."""
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        staging = out.parent / f".{out.name}.{secrets.token_hex(6)}.partial"
-        staging.mkdir()  # as `out` would be made: the user's umask, not a private 0700
-    except OSError as exc:
-        raise SiteWriteError(f"cannot write {out}: {exc.strerror or exc}") from None
-    return staging
+@contextlib.contextmanager
+def _staging_folder(out: Path) -> Iterator[Path]:
+    """A new hidden folder beside `out` (the same file system: renamed in one step), removed
+    after unless published; those of leaderboards killed meanwhile are removed first."""
+    with contextlib.ExitStack() as stack:
+        try:
+            staging = stack.enter_context(staged_beside(out, folder=True))
+        except OSError as exc:
+            raise SiteWriteError(f"cannot write {out}: {exc.strerror or exc}") from None
+        yield staging
 
 
 def _write_sources(sources: Sequence[str | Path], site: Path, out: Path,

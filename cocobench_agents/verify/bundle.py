@@ -33,6 +33,7 @@ from typing import Any
 from benchmark_adapter.tasks import available_suites
 from benchmark_adapter.vocabulary import EMBEDDED
 from cocobench_agents.engine.request import iter_fields, kind
+from cocobench_agents.partial_output import staged_beside
 from cocobench_agents.runfolder import PROMPTS_FILE, RESULTS, RUN_FILE, RunFolder, RunFolderError
 from cocobench_agents.verify.errors import BundleWriteError, VerifyError
 from cocobench_agents.version import __version__
@@ -191,38 +192,30 @@ def _write_tar(folder: RunFolder, files: list[str], manifest: dict[str, Any],
                out: Path) -> None:
     """Write the bundle to a temporary file beside `out`, renamed to it once whole: a full
     disk or a killed process never leaves a partial bundle under `out`'s name, and a failed
-    write leaves nothing. `BundleWriteError` for a file that cannot be written."""
-    partial: Path | None = None
+    write leaves nothing; the partial bundles of packs killed meanwhile are removed first.
+    `BundleWriteError` for a file that cannot be written."""
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        handle, temp_name = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.",
-                                             suffix=".partial")
-        os.close(handle)
-        partial = Path(temp_name)
-        with tarfile.open(partial, "w:gz", format=tarfile.PAX_FORMAT) as tar:
-            data = json.dumps(manifest, indent=2, sort_keys=True).encode("utf-8")
-            info = tarfile.TarInfo(MANIFEST)
-            info.size, info.mtime, info.mode = len(data), 0, 0o644
-            tar.addfile(info, io.BytesIO(data))
-            for name in files:
-                path = folder.inside(name)
-                info = tarfile.TarInfo(name)
-                info.size, info.mtime, info.mode = path.stat().st_size, 0, 0o644
-                with open(path, "rb") as f:
-                    tar.addfile(info, f)
-        partial.chmod(0o644)  # mkstemp's file is private; a bundle is for sharing
-        os.replace(partial, out)
+        with staged_beside(out, folder=False) as partial:
+            _write_members(folder, files, manifest, partial)
+            partial.chmod(0o644)  # a bundle is for sharing
+            os.replace(partial, out)
     except OSError as exc:
-        _remove(partial)
         raise BundleWriteError(f"cannot write {out}: {exc.strerror or exc}") from None
-    except BaseException:
-        _remove(partial)
-        raise
 
 
-def _remove(partial: Path | None) -> None:
-    if partial is not None:
-        partial.unlink(missing_ok=True)
+def _write_members(folder: RunFolder, files: list[str], manifest: dict[str, Any],
+                   partial: Path) -> None:
+    with tarfile.open(partial, "w:gz", format=tarfile.PAX_FORMAT) as tar:
+        data = json.dumps(manifest, indent=2, sort_keys=True).encode("utf-8")
+        info = tarfile.TarInfo(MANIFEST)
+        info.size, info.mtime, info.mode = len(data), 0, 0o644
+        tar.addfile(info, io.BytesIO(data))
+        for name in files:
+            path = folder.inside(name)
+            info = tarfile.TarInfo(name)
+            info.size, info.mtime, info.mode = path.stat().st_size, 0, 0o644
+            with open(path, "rb") as f:
+                tar.addfile(info, f)
 
 
 @contextlib.contextmanager

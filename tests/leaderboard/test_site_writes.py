@@ -82,13 +82,14 @@ def test_a_leaderboard_killed_mid_way_leaves_no_site(bundle, alone, tmp_path):
     out = tmp_path / "site"
     process = _start(bundle, out, start_new_session=True)
     deadline = time.monotonic() + 120
-    while not any(tmp_path.iterdir()) and time.monotonic() < deadline:
-        time.sleep(0.01)  # until it starts writing
+    while not any(tmp_path.glob("*.partial")) and time.monotonic() < deadline:
+        time.sleep(0.01)  # until it is writing its staged site
     os.killpg(process.pid, signal.SIGKILL)
     process.communicate(timeout=60)
     assert not out.exists()  # a half-written site is never at --out
     assert main(["leaderboard", str(bundle), "--out", str(out), "--jobs", "1"]) == 0
     assert contents(out) == alone
+    assert [p.name for p in tmp_path.iterdir()] == ["site"]  # the killed one's staging too
 
 
 @pytest.mark.slow

@@ -67,3 +67,32 @@ def test_a_verify_killed_whole_is_judged_the_same_by_a_rerun(many_episodes_bundl
     assert outcome["ok"] and outcome["counts"] == {"verified": 128}
     assert len(outcome["episodes"]) == 128 >= PARALLEL_FROM
     assert list(tmp.iterdir()) == []  # the killed one's unpacked bundle is reclaimed too
+
+
+def test_a_killed_packs_partial_bundle_is_removed_by_the_next_pack(demo_run, tmp_path) -> None:
+    # A SIGKILL runs no clean-up: the hidden partial bundle stays until the next pack beside it.
+    out = tmp_path / "demo.cocobench.tar.gz"
+    process = subprocess.Popen([sys.executable, "-c", STAGER, str(out)], stdin=subprocess.PIPE,
+                               stdout=subprocess.PIPE, text=True)
+    partial = Path(process.stdout.readline().strip())
+    process.kill()
+    process.wait(timeout=30)
+    assert partial.exists() and partial.name.startswith(".demo.cocobench.tar.gz.")
+    done = subprocess.run([sys.executable, "-m", "cocobench_agents.cli", "submit", "pack",
+                           str(demo_run), "--out", str(out)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert [p.name for p in tmp_path.iterdir()] == [out.name]
+
+
+# What `cocobench submit pack` stages, as a pack killed mid-way leaves it.
+STAGER = """
+import sys
+from pathlib import Path
+from cocobench_agents.partial_output import staged_beside
+
+with staged_beside(Path(sys.argv[1]), folder=False) as partial:
+    partial.write_bytes(b"half a tar")
+    print(partial, flush=True)
+    sys.stdin.read()
+"""
