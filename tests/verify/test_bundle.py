@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import tarfile
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -236,12 +237,21 @@ def test_not_a_bundle(tmp_path: Path, content: bytes, capsys) -> None:
     assert "Traceback" not in err
 
 
+#: How many `..` a member name may climb from the folder a bundle is unpacked in and still land
+#: in the fuzz test's watched folder (the unpacked run is two below the temporary folder).
+ESCAPE_DEPTH = 6
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                    HealthCheck.function_scoped_fixture])
 @given(names=st.lists(st.text(min_size=1, max_size=40), min_size=1, max_size=4),
        data=st.binary(max_size=64))
 def test_fuzzed_member_names_never_leave_the_folder(tmp_path: Path, names: list[str],
                                                     data: bytes) -> None:
+    """The bundle is unpacked under `tmp_path`, ESCAPE_DEPTH folders down, so a name climbing
+    out of the private folder (up to that many `..`) or a file written beside the bundle lands
+    in `tmp_path`, which is watched: a small tree, walked twice per example (walking all the
+    worker's temporary folders cost 35 s in a whole run)."""
     from cocobench_agents.verify import VerifyError, open_bundle
 
     files = {}
@@ -252,7 +262,11 @@ def test_fuzzed_member_names_never_leave_the_folder(tmp_path: Path, names: list[
         write_bundle(path, files)
     except (ValueError, UnicodeError):
         return  # a name tarfile cannot write
-    before = set(tmp_path.parent.rglob("*"))
-    with pytest.raises(VerifyError), open_bundle(path):
-        pass
-    assert set(tmp_path.parent.rglob("*")) == before
+    temp = tmp_path.joinpath(*(f"up{n}" for n in range(ESCAPE_DEPTH)))
+    temp.mkdir(parents=True, exist_ok=True)
+    before = set(tmp_path.rglob("*"))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(tempfile, "tempdir", str(temp))  # where open_bundle makes its folder
+        with pytest.raises(VerifyError), open_bundle(path):
+            pass
+    assert set(tmp_path.rglob("*")) == before
