@@ -67,6 +67,7 @@ class Episode:
         self._spaces: dict[tuple, ActionSpace] = {}
         self._menus: dict[tuple, list[MenuEntry]] = {}
         self.goals = goals.GoalSet(config)
+        self._texts: tuple = ()  # (Γ, checks passed, goal text, progress text), `_goal_texts`
         self._steps: list[dict[str, Any]] = []  # skill_result records, in order
         self._objects: list[dict[str, Any]] = []  # agent 0's objects now
         self._agents: list[dict[str, Any]] = []  # each agent's hand and last action now
@@ -132,13 +133,13 @@ class Episode:
         space = self._space
         # The last recorded item was evaluated on exactly the current state.
         evaluation = self.items[-1]["eval"] if self.items else self.evaluate()
+        goal_text, progress_text = self._goal_texts(space, evaluation)
         return Observation(
             step_index=self.step_index,
             round_index=self.round_index,
             agents=self.config.agent_ids,
-            goal_text=goals.goal_text(self.config, space.alias_of, self.goals),
-            progress_text=goals.progress_text(self.config, space.alias_of, evaluation,
-                                              self.goals),
+            goal_text=goal_text,
+            progress_text=progress_text,
             evaluation=evaluation,
             action_menu=self._compact_menu(),
             inventories=self.inventories(),
@@ -177,6 +178,17 @@ class Episode:
                 space = _bounded(self._spaces)[key] = ActionSpace.build(self.config.agent_ids,
                                                                         self._objects)
             self._space, self._space_key = space, key
+
+    def _goal_texts(self, space: ActionSpace, evaluation: dict[str, Any]) -> tuple[str, str]:
+        # The texts name objects by Γ's aliases and mark the checks passed: most steps change
+        # neither, so they are the last step's.
+        passed = tuple(bool(check["passed"]) for check in evaluation["checks"])
+        texts = self._texts
+        if not texts or texts[0] is not space or texts[1] != passed:
+            texts = self._texts = (
+                space, passed, goals.goal_text(self.config, space.alias_of, self.goals),
+                goals.progress_text(self.config, space.alias_of, evaluation, self.goals))
+        return texts[2], texts[3]
 
     def _compact_menu(self) -> list[MenuEntry]:
         # The compact menu changes with Γ, and in D4 with what lies on the buffer.

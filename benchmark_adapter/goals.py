@@ -129,12 +129,13 @@ class GoalSet:
         # Each check records its predicate as stated: dumped once, copied per evaluation.
         self._stated = [g.model_dump(mode="json", exclude_unset=True)
                         for g in config.goal_predicates]
+        self._flat = [_flat(stated) for stated in self._stated]
 
     def evaluate(self, objects: Sequence[Mapping[str, Any]], steps: Steps) -> dict[str, Any]:
         """`{success, checks}` for every goal predicate; a missing object fails its check."""
         by_id = {o["objectId"]: o for o in objects}
-        checks = [_check(goal, args, by_id, steps, _fresh(stated))
-                  for (goal, args), stated in zip(self.goals, self._stated)]
+        checks = [_check(goal, args, by_id, steps, dict(stated) if flat else copy.deepcopy(stated))
+                  for (goal, args), stated, flat in zip(self.goals, self._stated, self._flat)]
         return {"success": all(c.passed for c in checks),
                 "checks": [c.to_dict() for c in checks]}
 
@@ -158,11 +159,10 @@ def evaluate(
     return GoalSet(config).evaluate(objects, steps)
 
 
-def _fresh(stated: dict[str, Any]) -> dict[str, Any]:
-    """A copy of a dumped predicate that shares nothing with it."""
-    if all(v is None or isinstance(v, (str, int, float)) for v in stated.values()):
-        return dict(stated)
-    return copy.deepcopy(stated)
+def _flat(stated: dict[str, Any]) -> bool:
+    """Whether a dumped predicate holds only scalars: a shallow copy of it then shares
+    nothing with it (else each evaluation deep-copies it)."""
+    return all(v is None or isinstance(v, (str, int, float)) for v in stated.values())
 
 
 def _check(goal: GoalPredicate, args: Args, by_id: Objects, steps: Steps,

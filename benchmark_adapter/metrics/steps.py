@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -231,9 +232,17 @@ def classify_step(
     allowed = allowed_skills_by_agent.get(s.agent)
     if allowed is not None and s.skill not in allowed:
         return "illegal_skill"
-    if s.skill == "Wait":
+    return _outcome_category(s.skill, s.success, s.error)
+
+
+# Scoring classifies each step in several metrics, and the same failure texts recur across
+# an episode's steps: the marker search runs once per distinct (skill, outcome, text).
+@functools.lru_cache(maxsize=4096)
+def _outcome_category(skill: str, success: bool, error: str | None) -> str:
+    """The category of an allowed step from its skill and outcome alone."""
+    if skill == "Wait":
         return "idle_wait"  # a Wait is idling whatever its outcome
-    if s.success:
+    if success:
         return "progress"
     for category, markers in (
         ("redundant_noop", NOOP_MARKERS),
@@ -241,9 +250,9 @@ def classify_step(
         ("affordance_miss", AFFORDANCE_MARKERS),
         ("concurrency_conflict", CONCURRENCY_MARKERS),
     ):
-        if has_marker(s.error, markers):
+        if has_marker(error, markers):
             return category
-    return "precondition_violation" if s.skill in INTERACTION_SKILLS else "action_failure"
+    return "precondition_violation" if skill in INTERACTION_SKILLS else "action_failure"
 
 
 def classify_steps(traj: Mapping[str, Any]) -> list[str]:

@@ -82,10 +82,17 @@ class GreedyClient:
 
     def __init__(self, name: str = "greedy") -> None:
         self.name = name
+        # An episode hands out the same menu tuple while its menu is unchanged (a tuple of
+        # frozen options cannot change): the choice is taken once per menu.
+        self._last: tuple[Sequence[MenuOption], MenuOption | None] = ((), None)
 
     async def complete(self, request: ModelRequest) -> ModelReply:
         """Answer with the greedy choice."""
-        choice = greedy_choice(request.menu)
+        menu, (last_menu, choice) = request.menu, self._last
+        if menu is not last_menu:
+            choice = greedy_choice(menu)
+            if isinstance(menu, tuple):
+                self._last = (menu, choice)
         return _reply(f"ACTION: {'DONE' if choice is None else choice.action_id}")
 
 

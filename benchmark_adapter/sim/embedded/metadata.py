@@ -57,6 +57,15 @@ def _parents(world: World, obj: SimObject) -> list[str] | None:
     return [p.id for p in world.ancestors(obj)] or None
 
 
+def _record_inputs(world: World, obj: SimObject) -> tuple:
+    """Everything `object_record` reads of `obj` that can change (its id, type and frozen
+    affordances cannot)."""
+    return (obj.x, obj.y, obj.z, obj.held_by is not None, tuple(obj.contents),
+            tuple(p.id for p in world.ancestors(obj)), obj.is_open, obj.is_toggled,
+            obj.is_sliced, obj.is_dirty, obj.is_filled, obj.fill_liquid, obj.is_broken,
+            obj.is_cooked)
+
+
 class ObjectTable:
     """Object records of the current world version, shared by every agent's metadata."""
 
@@ -64,12 +73,24 @@ class ObjectTable:
         self.world = world
         self._version = -1
         self._records: list[dict[str, Any]] = []
+        # Each object's last record with the object and inputs it was built from: an action
+        # changes one object or a few (an agent's move none), so most records are kept as
+        # they are. Like the records of one version, they are read-only.
+        self._built: dict[str, tuple[SimObject, tuple, dict[str, Any]]] = {}
 
     def records(self) -> list[dict[str, Any]]:
-        """Records for the current version (rebuilt only after the world changed)."""
-        if self._version != self.world.version:
-            self._records = [object_record(self.world, o) for o in self.world.objects.values()]
-            self._version = self.world.version
+        """Records for the current version (rebuilt only after the world changed, and then
+        only those of objects that changed)."""
+        world = self.world
+        if self._version != world.version:
+            built, records = self._built, []
+            for obj in world.objects.values():
+                inputs = _record_inputs(world, obj)
+                known = built.get(obj.id)
+                if known is None or known[0] is not obj or known[1] != inputs:
+                    known = built[obj.id] = (obj, inputs, object_record(world, obj))
+                records.append(known[2])
+            self._records, self._version = records, world.version
         return self._records
 
     def for_agent(self, agent: SimAgent) -> list[dict[str, Any]]:
@@ -160,6 +181,12 @@ class Snapshot(Sequence[AgentMetadata]):
 
     def __len__(self) -> int:
         return len(self._agents)
+
+    def __iter__(self) -> Iterator[AgentMetadata]:
+        # Sequence's own __iter__ indexes until an IndexError: this one is several times
+        # cheaper, and a skill's checks iterate every agent's metadata.
+        for index in range(len(self._agents)):
+            yield self[index]
 
     @overload
     def __getitem__(self, index: int) -> AgentMetadata: ...

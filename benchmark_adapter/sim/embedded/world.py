@@ -295,15 +295,26 @@ def place_agents(
     min_separation: float = 0.75,
 ) -> list[SimAgent]:
     """Agents on distinct walkable cells, chosen deterministically from the seed and scene."""
+    return [SimAgent(index=index, x=x, z=z, yaw=yaw)
+            for index, (x, z, yaw) in enumerate(
+                _placements(floor, count, seed, scene, min_separation))]
+
+
+# A run plays each task under several planners, models and samples, and drawing the shuffle
+# of every floor cell was most of a reset: each task's placement is drawn once.
+@functools.lru_cache(maxsize=1024)
+def _placements(floor: frozenset[tuple[int, int]], count: int, seed: int, scene: str,
+                min_separation: float) -> tuple[tuple[float, float, float], ...]:
+    """`place_agents`' poses (x, z, yaw), in agent order."""
     rng = random.Random(zlib.crc32(f"{scene}:{seed}".encode()))
     cells = sorted(floor)
-    agents: list[SimAgent] = []
+    placed: list[tuple[float, float, float]] = []
     for cx, cz in rng.sample(cells, len(cells)):
         x, z = cx * GRID, cz * GRID
-        if all(math.hypot(a.x - x, a.z - z) >= min_separation for a in agents):
-            agents.append(SimAgent(index=len(agents), x=x, z=z, yaw=90.0 * rng.randrange(4)))
-        if len(agents) == count:
-            return agents
+        if all(math.hypot(px - x, pz - z) >= min_separation for px, pz, _ in placed):
+            placed.append((x, z, 90.0 * rng.randrange(4)))
+        if len(placed) == count:
+            return tuple(placed)
     raise ValueError(f"scene {scene}: no room for {count} agents on the floor grid")
 
 
