@@ -237,8 +237,8 @@ def test_not_a_bundle(tmp_path: Path, content: bytes, capsys) -> None:
     assert "Traceback" not in err
 
 
-#: How many `..` a member name may climb from the folder a bundle is unpacked in and still land
-#: in the fuzz test's watched folder (the unpacked run is two below the temporary folder).
+#: How deep below the fuzz test's watched folder the temporary folder is: the unpacked run is
+#: two below that, so a member name climbing up to ESCAPE_DEPTH + 2 `..` still lands in it.
 ESCAPE_DEPTH = 6
 
 
