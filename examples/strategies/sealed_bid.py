@@ -17,8 +17,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from langgraph.runtime import Runtime
-
 from benchmark_adapter.skills.calls import parse_call
 from cocobench_agents.graphs import (
     Node,
@@ -31,8 +29,9 @@ from cocobench_agents.graphs import (
     land_round,
 )
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # types only: an episode of these rounds runs without LangGraph
     from langgraph.graph import StateGraph
+    from langgraph.runtime import Runtime
 
 POLICY = "sealed_bid"
 PRICES = ("1", "2", "3", "4", "5")

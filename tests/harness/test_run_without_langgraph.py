@@ -14,9 +14,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from cocobench_agents.graphs.runtime import END, RoundRuntime
 
 LANGGRAPH_PACKAGES = ("langgraph", "langchain_core", "langsmith")
+STRATEGIES = Path(__file__).resolve().parents[2] / "examples" / "strategies"
 RUN = [sys.executable, "-X", "importtime", "-m", "cocobench_agents.cli", "run", "--suite",
        "demo", "--model", "greedy", "--limit", "2", "--workers", "2"]
 
@@ -44,6 +47,7 @@ def run(tmp_path: Path, *planner_args: str) -> tuple[set[str], list[dict]]:
     return imported_packages(done.stderr), [json.loads(line) for line in lines]
 
 
+@pytest.mark.slow
 def test_a_run_of_the_built_in_planners_imports_no_langgraph(tmp_path):
     packages, results = run(tmp_path, "--planner", "centralized", "--planner",
                             "decentralized-broadcast", "--planner", "leader-worker",
@@ -54,6 +58,16 @@ def test_a_run_of_the_built_in_planners_imports_no_langgraph(tmp_path):
     assert all(r["terminal_reason"] for r in results)
 
 
+@pytest.mark.slow
+def test_the_example_strategies_rounds_run_without_langgraph(tmp_path):
+    # What a researcher copies: rounds declared, LangGraph's types for type checking only.
+    packages, results = run(tmp_path, "--planner", f"{STRATEGIES}/sealed_bid.py:SEALED_BID",
+                            "--planner", f"{STRATEGIES}/first_come.py:FIRST_COME")
+    assert packages.isdisjoint(LANGGRAPH_PACKAGES), packages & set(LANGGRAPH_PACKAGES)
+    assert sorted({r["condition"] for r in results}) == ["FC_image", "SB_image"]
+
+
+@pytest.mark.slow
 def test_a_strategy_that_gives_only_a_graph_runs_through_langgraph(tmp_path):
     (tmp_path / "graph_only.py").write_text(GRAPH_ONLY)
     packages, results = run(tmp_path, "--planner", "graph_only.py:GRAPH_ONLY")

@@ -17,8 +17,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from langgraph.runtime import Runtime
-
 from cocobench_agents.graphs import (
     Node,
     PlannerContext,
@@ -28,8 +26,9 @@ from cocobench_agents.graphs import (
     land_round,
 )
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # types only: an episode of these rounds runs without LangGraph
     from langgraph.graph import StateGraph
+    from langgraph.runtime import Runtime
 
 POLICY = "claim_board"
 BOARD = "board"  # the author of the board's own notes (a conflict)
