@@ -57,13 +57,19 @@ def run_arguments(suite: str, workers: int, out: Path, limit: int | None = None)
             *(["--limit", str(limit)] if limit else [])]
 
 
-def run_environment() -> dict[str, str]:
-    """The environment of the measured runs: bytecode cached as an installed package has it.
-    Where PYTHONDONTWRITEBYTECODE is set (this project's shared machines) every run would
-    compile the package's sources again: 0.18 s of CPU more in a run's serial start
-    (median of 5, load 8-10), a cost no user's install pays. The bytecode goes to a folder
-    of this process (PYTHONPYCACHEPREFIX), compiled once before the first run."""
-    return _environment(_bytecode_folder().name)
+def run_environment(suite: str) -> dict[str, str]:
+    """The environment of the measured runs of `suite`: bytecode cached as an installed
+    package and its interpreter have it. Where PYTHONDONTWRITEBYTECODE is set (this
+    project's shared machines) every run would compile the package's sources again: 0.18 s
+    of CPU more in a run's serial start (median of 5, load 8-10), a cost no user's install
+    pays. The bytecode goes to a folder of this process (PYTHONPYCACHEPREFIX), which Python
+    then reads for every module, the standard library's and the installed packages' too:
+    the package is compiled once, and one run of the suite's first instance compiles the
+    rest of what a run imports (else the first measured run compiles it: 1.5-1.8 CPU s of
+    its imports, more than the imports themselves, by a --limit 2 profile at load 2-4)."""
+    env = _environment(_bytecode_folder().name)
+    _warm_up(suite, env["PYTHONPYCACHEPREFIX"])
+    return env
 
 
 @functools.cache
@@ -73,6 +79,18 @@ def _bytecode_folder() -> tempfile.TemporaryDirectory:
                     "benchmark_adapter"], cwd=Path(__file__).resolve().parent.parent,
                    env=_environment(folder.name), check=True, capture_output=True)
     return folder
+
+
+@functools.cache
+def _warm_up(suite: str, pycache: str) -> None:
+    """One unmeasured run of `suite`'s first instance, its bytecode written to `pycache`."""
+    with tempfile.TemporaryDirectory() as tmp:
+        command = [sys.executable, "-m", "cocobench_agents.cli",
+                   *run_arguments(suite, 1, Path(tmp) / "run", limit=1)]
+        done = subprocess.run(command, capture_output=True, text=True,
+                              env=_environment(pycache))
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr}")
 
 
 def _environment(pycache: str) -> dict[str, str]:
@@ -85,9 +103,9 @@ def wall_time(suite: str, workers: int) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         command = [sys.executable, "-m", "cocobench_agents.cli",
                    *run_arguments(suite, workers, Path(tmp) / "run")]
+        env = run_environment(suite)  # before the clock starts: it may warm up
         started = time.perf_counter()
-        done = subprocess.run(command, capture_output=True, text=True,
-                              env=run_environment())
+        done = subprocess.run(command, capture_output=True, text=True, env=env)
         elapsed = time.perf_counter() - started
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr}")
@@ -160,10 +178,11 @@ def profiled_run(suite: str, workers: int, limit: int | None = None) -> Profile:
     phases."""
     with tempfile.TemporaryDirectory() as tmp:
         dump = Path(tmp) / "profile.json"
+        env = run_environment(suite)  # before the clock starts: it may warm up
         spawned = time.time()
         done = subprocess.run([sys.executable, "-c", PROFILED_RUN, str(dump),
                                *run_arguments(suite, workers, Path(tmp) / "run", limit)],
-                              capture_output=True, text=True, env=run_environment())
+                              capture_output=True, text=True, env=env)
         exited = time.time()
         if done.returncode != 0:
             raise SystemExit(f"profiled run failed ({done.returncode}):\n{done.stderr}")
