@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from cocobench_agents.runfolder.folder import RunFolder
 
 
 class EvalResults(list):
@@ -28,12 +31,14 @@ class EvalResults(list):
         return self.folder / RESULTS
 
 
-def collect_results(out: Path, stopped: str | None = None) -> EvalResults:
-    """The latest result line of every episode recorded in run folder `out`."""
+def collect_results(out: Path, stopped: str | None = None, *,
+                    folder: RunFolder | None = None) -> EvalResults:
+    """The latest result line of every episode recorded in run folder `out`; read through
+    `folder` (the run's own, which kept what it appended) where given."""
     from cocobench_agents.runfolder.folder import RunFolder
     from cocobench_agents.runfolder.infra import count_infra_failures, count_planner_failures
     from cocobench_agents.runfolder.summary import latest
 
-    records = latest(RunFolder(out).results())
+    records = latest((folder or RunFolder(out)).results())
     return EvalResults(records, Path(out), count_infra_failures(records), stopped,
                        count_planner_failures(records))

@@ -33,9 +33,11 @@ def append_json_line(path: Path, record: dict[str, Any]) -> None:
     append_json_lines(path, [record])
 
 
-def append_json_lines(path: Path, records: list[dict[str, Any]]) -> None:
+def append_json_lines(path: Path, records: list[dict[str, Any]]
+                      ) -> tuple[tuple[int, ...], tuple[int, ...], bytes]:
     """Append `records` to `path`, a JSON line each, all or none, with one fsync;
-    `RunFolderWriteError` (the file cut back to its previous end) if they cannot be written."""
+    `RunFolderWriteError` (the file cut back to its previous end) if they cannot be written.
+    Returns the file's `file_identity` before and after, and the bytes appended."""
     line = "".join(json.dumps(record, sort_keys=True, ensure_ascii=False) + "\n"
                    for record in records).encode("utf-8")
     try:
@@ -43,6 +45,7 @@ def append_json_lines(path: Path, records: list[dict[str, Any]]) -> None:
     except OSError as exc:
         raise write_failed(path, exc) from None
     try:
+        before = file_identity(fd)
         end = os.lseek(fd, 0, os.SEEK_END)
         try:
             _write_all(fd, line)
@@ -50,8 +53,15 @@ def append_json_lines(path: Path, records: list[dict[str, Any]]) -> None:
         except OSError as exc:
             _truncate(fd, end)  # no partial line for the next one to be glued to
             raise write_failed(path, exc) from None
+        return before, file_identity(fd), line
     finally:
         os.close(fd)
+
+
+def file_identity(fd: int) -> tuple[int, ...]:
+    """What tells one state of an open file from another: inode, size, change times."""
+    stat = os.fstat(fd)
+    return stat.st_ino, stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns
 
 
 def json_object(raw: bytes) -> dict[str, Any] | None:
