@@ -276,6 +276,8 @@ class RunFolder:
         the file as it was just before (`before`): the run's summary then reads no line
         again (7.6 MB of JSON and 0.43 CPU s after the last episode of `cocobench-full`,
         parsed here while the workers run instead)."""
+        if after[1] != before[1] + len(data):  # another writer's bytes came in between
+            return
         if before[1] == 0:
             scan = ResultsScan()
         elif self._scanned is not None and self._scanned[0] == before \

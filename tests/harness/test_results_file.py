@@ -93,6 +93,37 @@ def test_a_folder_reads_its_results_again_only_once_they_changed(run):
     assert folder.scan_results().rows[0]["task_success"] == 1 - record["task_success"]
 
 
+def test_what_a_folder_appends_is_read_as_a_fresh_scan_reads_it(run, monkeypatch):
+    """The run's own appends extend its scan (the summary reads nothing again), unless
+    another writer's line came in between: then the whole file is read again."""
+    from cocobench_agents.runfolder import json_lines
+
+    folder, text = RunFolder(run), lines(run)
+    folder.scan_results()
+    folder.append_results([json.loads(text[0])])
+    assert _rows(folder) == _rows(RunFolder(run)) and len([*folder.results()]) == len(text) + 1
+    identity = json_lines.file_identity
+
+    def foreign_line_after_the_first_look(fd):  # another process appends meanwhile
+        seen = identity(fd)
+        monkeypatch.setattr(json_lines, "file_identity", identity)
+        with open(run / "results.jsonl", "a") as results:
+            results.write(text[1])
+        return seen
+
+    monkeypatch.setattr(json_lines, "file_identity", foreign_line_after_the_first_look)
+    folder.append_results([json.loads(text[2])])
+    assert _rows(folder) == _rows(RunFolder(run)) and len([*folder.results()]) == len(text) + 3
+
+
+def _rows(folder: RunFolder) -> tuple[list[str], list[str], list[str]]:
+    """A scan's rows, latest lines (order included) and problems, comparable."""
+    scan = folder.scan_results()
+    return ([json.dumps(row, sort_keys=True) for row in scan.rows],
+            [json.dumps([str(key), row], sort_keys=True) for key, row in scan.latest.items()],
+            scan.problems)
+
+
 def test_missing_trajectories_are_counted_past_the_shown_problems(run):
     """Ten problems are named one by one, the rest counted in one last line, whether they
     are bad lines or missing trajectories."""
