@@ -32,11 +32,7 @@ from cocobench_agents.models.protocol import MenuOption
 OBSERVATIONS = ("text", "numeric")
 #: The object types the embedded world knows (its affordance table and the slices it cuts).
 OBJECT_TYPES: tuple[str, ...] = tuple(sorted(
-    affordances.PICKUPABLE | affordances.RECEPTACLE | affordances.OPENABLE
-    | affordances.TOGGLEABLE | affordances.SLICEABLE | affordances.DIRTYABLE
-    | affordances.FILLABLE | affordances.MOVEABLE | affordances.BREAKABLE
-    | affordances.COOKABLE
-    | {affordances.slice_pieces(t)[0] for t in affordances.SLICEABLE}))
+    affordances.TYPES | {affordances.slice_pieces(t)[0] for t in affordances.SLICEABLE}))
 #: The goal predicates, in the benchmark's order (`goals.CHECKS`).
 PREDICATES: tuple[str, ...] = tuple(CHECKS)
 #: An object's state flags, as its metadata names them.

@@ -185,6 +185,9 @@ def _build(t: str) -> Affordances:
 
 _ALL = PICKUPABLE | RECEPTACLE | OPENABLE | TOGGLEABLE | SLICEABLE | DIRTYABLE | FILLABLE
 _TABLE = {t: _build(t) for t in _ALL | MOVEABLE | BREAKABLE | COOKABLE}
+#: Every object type with affordances of its own (a slice piece's are its whole's:
+#: `slice_pieces`).
+TYPES = frozenset(_TABLE)
 
 # Pieces created by SliceObject, per sliceable type (AI2-THOR numbers its pieces from 0).
 SLICE_PIECES = {"Apple": 3, "Bread": 4, "Lettuce": 3, "Potato": 3, "Tomato": 3}
