@@ -104,6 +104,8 @@ def read_json(path: str | Path) -> Any:
     too_long: list[str] = []
     try:
         data = _decode(path, text)
+    except TaskConfigError:  # a ValueError too, and final: a bad file is decoded once
+        raise
     except ValueError:  # an integer longer than Python converts: decoded again to name it
         data = _decode(path, text, parse_int=lambda literal: _integer(literal, too_long))
     # Nesting needs an opening bracket per level: a file with few (a task config has about

@@ -66,6 +66,18 @@ def test_invalid_json_names_line_and_column(tmp_path: Path) -> None:
     assert "invalid JSON at line 3, column 3" in str(err)
 
 
+def test_a_file_that_is_not_json_is_decoded_once(tmp_path: Path, monkeypatch) -> None:
+    # Only an integer too long to convert is decoded a second time (to name it).
+    from benchmark_adapter.tasks import loading
+
+    decoded, loads = [], json.loads
+    monkeypatch.setattr(loading.json, "loads",
+                        lambda text, **options: decoded.append(1) or loads(text, **options))
+    path = write(tmp_path / "t.json", '{\n  "task_id": "x",\n  oops\n}')
+    assert "invalid JSON at line 3, column 3" in str(error_for(path))
+    assert decoded == [1]
+
+
 def test_missing_task_id(tmp_path: Path) -> None:
     data = minimal()
     del data["task_id"]
