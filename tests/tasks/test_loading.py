@@ -6,6 +6,8 @@ import json
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from benchmark_adapter.tasks import (
     MissingTasksWarning,
@@ -203,3 +205,29 @@ def test_unknown_suite_lists_available(suites: Path) -> None:
 def test_real_suites_root_is_package_data() -> None:
     assert loading._suites_root().name == "data"
     assert "demo" in available_suites()
+
+
+# -- the nesting bound against a stranger's file ----------------------------------------------
+
+def _depth(value) -> int:
+    """How many levels of arrays/objects `value` nests (recursive: the reference)."""
+    if not isinstance(value, (dict, list)):
+        return 0
+    children = value.values() if isinstance(value, dict) else value
+    return 1 + max((_depth(child) for child in children), default=0)
+
+
+_trees = st.recursive(st.none() | st.integers() | st.text(max_size=2),
+                      lambda inner: st.lists(inner, max_size=3)
+                      | st.dictionaries(st.text(max_size=2), inner, max_size=3),
+                      max_leaves=40)
+
+
+@settings(max_examples=300, deadline=None)
+@given(tree=_trees, shared=st.integers(0, 3), limit=st.integers(1, 12))
+def test_depth_exceeds_is_the_nesting_depth_even_with_shared_nodes(tree, shared, limit):
+    # A YAML alias shares one node at several places (and depths): the walk must count the
+    # deepest, as the recursive reference does.
+    for _ in range(shared):
+        tree = [tree, {"again": tree}]
+    assert loading.depth_exceeds(tree, limit) == (_depth(tree) > limit)
