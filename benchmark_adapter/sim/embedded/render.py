@@ -15,6 +15,7 @@ import struct
 import threading
 import zlib
 from collections import OrderedDict
+from dataclasses import dataclass
 from typing import Any
 
 from PIL import Image, ImageDraw, ImageFont
@@ -40,8 +41,7 @@ Box = tuple[float, float, float, float]
 #: How many pictures are kept by what they show (`_picture_key`): an agent sees the same view
 #: again and again (a Find brings it back to the same spot), and a picture takes ~1 ms to draw.
 PICTURES_KEPT = 64
-#: Each kept as [picture, its pixels (made when first asked for) or None].
-_pictures: OrderedDict[tuple, list] = OrderedDict()
+_pictures: OrderedDict[tuple, _KeptPicture] = OrderedDict()
 #: Guards the kept pictures and labels (`_kept`).
 _kept_lock = threading.Lock()
 
@@ -371,7 +371,7 @@ def draw_agent_view(view: dict, width: int = 300, height: int = 300) -> Image.Im
     Width and height are clamped up to at least 300 px. The picture may be shared with an
     earlier call that showed the same: copy it before drawing on it.
     """
-    return _kept_picture(view, width, height)[0]
+    return _kept_picture(view, width, height).picture
 
 
 def agent_view_pixels(view: dict, width: int = 300, height: int = 300) -> Any:
@@ -381,25 +381,36 @@ def agent_view_pixels(view: dict, width: int = 300, height: int = 300) -> Any:
     import numpy  # here: only environments read pixels, and numpy takes a while to import
 
     kept = _kept_picture(view, width, height)
-    if kept[1] is None:
-        picture, drawn = kept[0], kept[2]
-        pixels = _room_pixels(picture.width, picture.height, kept[3]).copy()
+    if kept.pixels is None:
+        picture, drawn = kept.picture, kept.drawn
+        pixels = _room_pixels(picture.width, picture.height, kept.horizon).copy()
         if drawn is not None:
             left, top, right, bottom = drawn
             pixels[top:bottom, left:right] = numpy.asarray(picture.crop(drawn))
         pixels.flags.writeable = False  # shared by every call that shows the same
-        kept[1] = pixels
-    return kept[1]
+        kept.pixels = pixels
+    return kept.pixels
 
 
-def _kept_picture(view: dict, width: int, height: int) -> list:
-    """[picture, its pixels or None, the box drawn on its room, its camera's horizon],
-    drawn or the kept one that shows the same."""
+@dataclass
+class _KeptPicture:
+    """A picture drawn, the whole-pixel box drawn on its room (None: nothing), its camera's
+    horizon (which room) and its pixels, made when first asked for."""
+
+    picture: Image.Image
+    drawn: Box | None
+    horizon: float
+    pixels: Any = None
+
+
+def _kept_picture(view: dict, width: int, height: int) -> _KeptPicture:
+    """The picture of `view`, drawn or the kept one that shows the same."""
     w, h = max(int(width), MIN_SIZE), max(int(height), MIN_SIZE)
     cam = _Camera(view, w, h)
     items = _visible_items(view, cam)
     return _kept(_pictures, _picture_key(cam, items, view),
-                 lambda: [*_draw_view(view, cam, items), cam.horizon], PICTURES_KEPT)
+                 lambda: _KeptPicture(*_draw_view(view, cam, items), cam.horizon),
+                 PICTURES_KEPT)
 
 
 def _picture_key(cam: _Camera, items: list[tuple[float, str, dict]], view: dict) -> tuple:
@@ -423,9 +434,9 @@ _SHOWN_STATES = ("receptacle", "openable", "isOpen", "isSliced", "toggleable", "
 
 
 def _draw_view(view: dict, cam: _Camera,
-               items: list[tuple[float, str, dict]]) -> tuple[Image.Image, None, Box | None]:
-    """The picture, None (its pixels, made when asked for) and the whole-pixel box that
-    holds everything drawn on the room (None when nothing is)."""
+               items: list[tuple[float, str, dict]]) -> tuple[Image.Image, Box | None]:
+    """The picture, and the whole-pixel box that holds everything drawn on the room (None
+    when nothing is)."""
     w, h = cam.w, cam.h
     img = _room(w, h, cam.horizon).copy()
     draw = ImageDraw.Draw(img)
@@ -452,7 +463,7 @@ def _draw_view(view: dict, cam: _Camera,
     if held:
         draw.rectangle(held[1], fill=(255, 244, 190), outline=(120, 100, 30), width=2)
         draw.text((held[1][0] + 5, held[1][1] + 4), held[0], fill=(0, 0, 0), font=font, anchor="lt")
-    return img, None, _drawn_box([*shapes, *taken], w, h)
+    return img, _drawn_box([*shapes, *taken], w, h)
 
 
 #: Pixels around a drawn shape's box that its rasterised edge may touch (Pillow rounds the
