@@ -17,7 +17,7 @@ _EXPORTS = {
     "Seat": ".registry", "DEFAULT_PLANNER": ".registry", "ORACLE": ".registry",
     "NO_MODEL": ".registry",
     "compiled_graph": ".lookup", "planner_spec": ".lookup", "find_planner": ".lookup",
-    "planner_rounds": ".lookup",
+    "planner_rounds": ".lookup", "build_planners": ".lookup",
     # a round declared once as plain functions: its graph, and the loop that plays it
     "Rounds": ".rounds", "Node": ".rounds", "FanOut": ".rounds", "play_rounds": ".rounds",
     # what a strategy is made of

@@ -7,6 +7,7 @@ It sits above both `registry` and `plugins`, so that neither imports the other's
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from cocobench_agents.graphs.plugins import find_user_planner, load_planner
@@ -62,6 +63,17 @@ def compiled_graph(name: str):
     if cached is None or cached[0] is not spec:
         cached = _COMPILED[spec.name] = (spec, _compile(spec))
     return cached[1]
+
+
+def build_planners(names: Iterable[str]) -> None:
+    """Build each planner now, once for this process: a worker that does so before its
+    first episode spends none of that episode's time on it (a graph-only strategy imports
+    LangGraph and compiles, seconds on a busy machine, during which its loop is silent and
+    a short --stall-timeout stops it as a runaway). A planner that declares its rounds is
+    played without LangGraph, so only a graph-only one is compiled."""
+    for name in dict.fromkeys(names):
+        if planner_rounds(name) is None:
+            compiled_graph(name)
 
 
 def _compile(spec: PlannerSpec):

@@ -111,7 +111,8 @@ class RayExecutor:
             on_event(ExecutorStarted(shape.capacities, f"{shape.describe()} on {where}"))
             spec = WorkerSpec(shape, backend, per_worker=1 if backend == AI2THOR else jobs,
                               most=min(workers or jobs, jobs),
-                              keys=run_key_variables(pool.settings, _models(episodes)))
+                              keys=run_key_variables(pool.settings, _models(episodes)),
+                              planners=tuple(dict.fromkeys(p.spec.planner for p in episodes)))
             fleet = Fleet(ray, spec, pool.settings, run_name=folder.path.name,
                           wait_s=settings.ray_wait, halt=Halt())
             dispatch = _Dispatch(fleet, folder, jobs=jobs, bounds=bounds, on_event=on_event)

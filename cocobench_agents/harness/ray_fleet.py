@@ -79,13 +79,14 @@ def fleet_shape(resources: Mapping[str, float], *, backend: str, jobs: int, work
 class WorkerSpec:
     """What every worker of the run is: its Ray resources and backend, the episodes it runs
     at once at most (`per_worker`), how many there may be (`most`), the key variables its
-    node must have."""
+    node must have, the planners it builds before it is ready."""
 
     shape: FleetShape
     backend: str
     per_worker: int
     most: int
     keys: KeyVariables
+    planners: tuple[str, ...] = ()
 
 
 @dataclass(eq=False)
@@ -151,7 +152,8 @@ class Fleet:
         actor = self.actor_class.options(
             num_cpus=self.spec.shape.num_cpus, num_gpus=self.spec.shape.num_gpus,
             max_concurrency=self.spec.per_worker + 1,  # one more for close()
-        ).remote(self.settings, self.limiter, holder, self.spec.backend, self.spec.keys)
+        ).remote(self.settings, self.limiter, holder, self.spec.backend, self.spec.keys,
+                 self.spec.planners)
         self.starting[actor.ready.remote()] = RayWorker(actor, holder)
 
     def started(self, ref: Any) -> None:

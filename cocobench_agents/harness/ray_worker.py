@@ -20,6 +20,7 @@ from typing import Any
 
 from benchmark_adapter.sim.backends import check_backend
 from benchmark_adapter.vocabulary import EMBEDDED
+from cocobench_agents.graphs import build_planners
 from cocobench_agents.harness.batch import run_one
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
@@ -60,7 +61,7 @@ class EpisodeWorker:
     """Runs episodes for the driver (an async Ray actor's body)."""
 
     def __init__(self, settings: ModelSettings, limiter: Any, holder: str,
-                 backend: str, keys: KeyVariables = ()) -> None:
+                 backend: str, keys: KeyVariables = (), planners: Sequence[str] = ()) -> None:
         self.missing = missing_variables(keys)
         self.last_beat, self.beat = time.monotonic(), None
         self.pool = LimitedPool(ModelPool(settings), limiter, holder)
@@ -71,6 +72,8 @@ class EpisodeWorker:
             except Exception as exc:  # noqa: BLE001 - Ray cannot carry our exception types
                 detail = " ".join(str(exc).split())  # one line: the driver shows the last
                 raise RuntimeError(f"{type(exc).__name__}: {detail}") from None
+        # Before `ready`: the runaway watch counts a worker's silence once it has started.
+        build_planners(planners)
 
     def ready(self) -> WorkerInfo:
         """Where this worker runs and what its node lacks (answered once it has started)."""

@@ -35,7 +35,7 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.graphs import compiled_graph, planner_rounds
+from cocobench_agents.graphs import build_planners
 from cocobench_agents.harness.batch import (
     described,
     infra_error_record,
@@ -469,13 +469,9 @@ async def _beat(heartbeat: Any) -> None:
 def _warm_up(episodes: Sequence[PlannedEpisode]) -> None:
     """Build the plan's planners here, before the workers fork, so that each inherits them
     instead of building its own (a worker's first episode took 7.7 s instead of 0.35 s on a
-    busy 2-core machine when each imported LangGraph and compiled). A planner that declares
-    its rounds is played without LangGraph (`planner_rounds`): only a strategy that gives
-    just a graph is compiled, and only then is LangGraph imported."""
+    busy 2-core machine when each imported LangGraph and compiled)."""
     if _context().get_start_method() == "fork":
-        for planner in dict.fromkeys(p.spec.planner for p in episodes):
-            if planner_rounds(planner) is None:
-                compiled_graph(planner)
+        build_planners(p.spec.planner for p in episodes)
 
 
 def _context() -> multiprocessing.context.BaseContext:

@@ -116,6 +116,25 @@ def test_a_runaway_is_recorded_by_cause_and_the_run_goes_on(tmp_path, executor, 
     assert len(latest) == 2 and latest[-1]["infra_error"].startswith(f"{cause}: ")
 
 
+def test_a_ray_worker_builds_the_runs_planners_before_it_is_ready(monkeypatch):
+    """A graph-only strategy compiles (and imports LangGraph) as the worker starts, not in
+    its first episode: there, seconds of a silent loop on a busy machine were stopped as a
+    stall (an innocent episode run alone on a fresh worker, recorded as a runaway)."""
+    from cocobench_agents.graphs import compiled_graph, lookup
+    from cocobench_agents.harness.ray_worker import EpisodeWorker
+    from cocobench_agents.models import ModelSettings
+
+    planner = f"{PLANTED}:spin"
+    monkeypatch.setattr(lookup, "_COMPILED", {})
+    EpisodeWorker(ModelSettings(), None, "worker-1", "embedded", (), (planner,))
+
+    def compile_again(spec):
+        raise AssertionError(f"{spec.name} compiled after the worker started")
+
+    monkeypatch.setattr(lookup, "_compile", compile_again)
+    assert compiled_graph(planner) is not None
+
+
 def test_the_limits_say_what_stopped_a_worker():
     limits = RunawayLimits(episode_memory_mb=100, stall_s=5)
     mb = 1 << 20
