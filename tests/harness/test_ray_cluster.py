@@ -49,6 +49,7 @@ ROOT = Path(__file__).resolve().parents[2]
 KEY = "COCOBENCH_TEST_CLUSTER_KEY"  # the run's key variable (`api_key_env`); no real key
 DELAY_S = 0.1  # the model's answer time
 BOUND_S = 240  # no run of this module may take longer (2 busy cores)
+STRANDED_WAIT_S = 20  # the stranded run's --ray-wait
 NODE_GONE_S = 60  # Ray declares a killed node dead after about 15 s (its health checks)
 NOT_COMPARED = ("elapsed_s", "latency_s", "model_latency_s",  # timing
                 "node", "requeued")  # where a Ray run ran an episode
@@ -307,13 +308,16 @@ def test_a_run_with_no_worker_alive_for_wait_s_stops_with_what_finished_recorded
                 if lost in cluster.worker_nodes:
                     cluster.remove_node(lost, allow_graceful=False)
 
+            # Long enough for the worker to start on a busy machine: its start counts as a
+            # time with no worker alive (a 3 s wait ran out first on CI's two loaded cores).
             with within(BOUND_S), pytest.raises(WorkersLost) as stopped:
                 execution = ExecutionSettings(executor="ray", jobs=4, ray_address=cluster.address,
-                                              ray_wait=3)
+                                              ray_wait=STRANDED_WAIT_S)
                 RayExecutor().run(plan(), folder, ModelPool(settings(server)), execution,
                                   on_event=on_recorded(on_result))
     finally:
         ray.shutdown()
+    assert stopped.value.cause.startswith("the nodes that ran them are gone"), stopped.value
     records = list(folder.results())
     assert records and {r["node"] for r in records} == {lost.node_id}
     assert len(records) + stopped.value.left == len(plan())
