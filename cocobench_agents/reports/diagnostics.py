@@ -55,8 +55,11 @@ def terminal_states(ctx: Ctx) -> Table:
         "terminal_states", "Terminal-state taxonomy",
         "Share of episodes (%) by outcome: success, or the kind of failure from the terminal "
         "reason (protocol_failure = parse error or invalid action id; budget_exhaustion = "
-        "step budget; empty_plan = DONE with the goal unmet; infra_error = the episode "
-        "could not run; unrecorded = failed without a terminal reason).",
+        "step budget; backend_error = a model call got no answer; empty_plan = DONE with "
+        "the goal unmet; all_idle = every robot waited; no_actions = no action was taken; "
+        "other = another reason; infra_error = the episode could not run; planner_error = "
+        "the strategy's own code ended it (a column only when there are some); unrecorded = "
+        "failed without a terminal reason).",
         [*ID_COLUMNS, *(Column(k, k, "pct") for k in kinds)])
     kind = ctx.ep.text["failure_kind"]
     for model, condition, mask in ctx.cells():

@@ -92,6 +92,19 @@ def test_infra_error_counts_as_a_failure_without_diagnostics(tmp_path: Path) -> 
     assert "--resume --retry-errors" in index
 
 
+def test_the_terminal_states_caption_explains_every_column_shown(tmp_path: Path) -> None:
+    oracle = result_lines(RUN_ORACLE)
+    planner = _infra_line(oracle[1], epoch=1, infra_error=None,
+                          planner_error="ValueError('a node raised')")
+    run = write_run(tmp_path / "run", [*result_lines(RUN_SMALL), *oracle,
+                                       _infra_line(oracle[0], epoch=1), planner])
+    table = _tables(run)["terminal_states"]
+    kinds = [c.key for c in table.columns if c.key not in ("model", "condition", "n")]
+    assert {"infra_error", "planner_error"} <= set(kinds)
+    unexplained = [k for k in kinds if k != "success" and f"{k} = " not in table.caption]
+    assert not unexplained, table.caption
+
+
 def test_an_imported_runs_errors_are_retried_through_inspect(tmp_path: Path) -> None:
     """`cocobench run --resume` cannot resume a run imported from an Inspect log: the
     report's advice is Inspect's retry of that log, then an import of the new log."""
