@@ -48,6 +48,8 @@ class PreflightFailed(ValueError):
 def check_eval_models(settings: ModelSettings, planned: Iterable[PlannedEpisode]) -> None:
     """Probe the models of the running eval that `planned` calls; `PreflightFailed` naming
     each model and input kind whose call failed. Nothing when no eval is running here."""
+    # Inspect (0.3.285) exports no way to ask for the running eval's model without falling
+    # back to a default one (`get_model()`): its own `active_model` is read, here and below.
     from inspect_ai.model._model import active_model
 
     team = active_model()
@@ -68,7 +70,7 @@ def check_roles(tasks: list[TaskConfig]) -> None:
     """`PreflightFailed` for an Inspect model role of the running eval that names no agent of
     `tasks` (a misspelt ``--model-role agnet_2=…`` would be ignored: that agent would decide
     with the eval's model), as `cocobench run` refuses such an ``--agent-model``."""
-    from inspect_ai.model._model import model_roles
+    from inspect_ai.model import model_roles
 
     unknown = unknown_seats(model_roles(), tasks)
     if unknown:

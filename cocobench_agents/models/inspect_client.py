@@ -56,7 +56,7 @@ def inspect_model(agent: str | None) -> Any:
 def role_model(agent: str) -> Any:
     """The model of the running eval's Inspect model role named `agent` (the first, where a
     list is assigned to the role); None where the eval defines no such role."""
-    from inspect_ai.model._model import model_roles
+    from inspect_ai.model import model_roles
 
     role = model_roles().get(agent)
     if isinstance(role, list):
@@ -88,7 +88,7 @@ class InspectClient(RemoteClient):
 
     async def send(self, messages: list[dict[str, Any]], params: dict[str, Any],
                    timeout_s: float) -> Completion:
-        from inspect_ai.log._transcript import transcript
+        from inspect_ai.log import transcript
         from inspect_ai.model import GenerateConfig
 
         model = self.inspect_model or inspect_model(_AGENT.get())
@@ -196,7 +196,7 @@ def served_from_cache(output: Any, since: int) -> bool:
     Only the events logged from the index `since` on are read (the transcript's event count
     before the call): a sample's calls then read its transcript once in all, not once each
     (`Transcript.events` may even re-read its history from the start for every index)."""
-    from inspect_ai.log._transcript import transcript
+    from inspect_ai.log import transcript
 
     for event in reversed(transcript().history.events_from(since)):
         if getattr(event, "event", None) == "model" and (event.output is output
