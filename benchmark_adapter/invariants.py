@@ -5,9 +5,10 @@ calls (any object, any agent, bad numbers) and raw native calls (forced or not, 
 unknown ids) — checking after each: containment a forest whose contents lie within their
 receptacle's bounds; held objects in no receptacle; one holder per object and one object per
 hand; nothing visible that is shut in a closed container or in a teammate's hand; a refused
-native action changes nothing; every number finite. At the end the trajectory holds no
-non-finite number, and a replay of the same steps in a fresh world gives the same bytes.
-The CI fuzz test (`tests/sim/test_invariants_fuzz.py`) and the full sweep
+native action changes nothing; every number finite; every object's metadata record (kept
+between steps while its inputs are unchanged) equal to one built afresh. At the end the
+trajectory holds no non-finite number, and a replay of the same steps in a fresh world gives
+the same bytes. The CI fuzz test (`tests/sim/test_invariants_fuzz.py`) and the full sweep
 (`bench/sim_sweep.py`) both run it.
 """
 
@@ -22,6 +23,7 @@ from typing import Any
 
 from benchmark_adapter.episode import Episode
 from benchmark_adapter.sim.embedded.controller import EmbeddedController
+from benchmark_adapter.sim.embedded.metadata import object_record
 from benchmark_adapter.sim.embedded.vision import enclosed, visible
 from benchmark_adapter.sim.embedded.world import World
 from benchmark_adapter.skills.executor import EXPLORE, SKILLS
@@ -187,6 +189,7 @@ def _apply_checked(episode: Episode, step: tuple[str, Any]) -> bool:
     if refused and state(world) != before:
         raise InvariantBroken("a refused native action changed the world")
     check_world(world)
+    check_records(episode.controller)
     return refused
 
 
@@ -201,6 +204,16 @@ def state(world: World) -> str:
     agents = [{k: v for k, v in vars(a).items() if not k.startswith("last_")}
               for a in world.agents]
     return json.dumps({"objects": objects, "agents": agents}, sort_keys=True)
+
+
+def check_records(controller: EmbeddedController) -> None:
+    """Raise `InvariantBroken` unless the metadata's object records (`ObjectTable` keeps
+    each while what it reads is unchanged) are those `object_record` builds now."""
+    world = controller.world
+    for record in controller.last_metadata()[0]["objects"]:
+        kept = {k: v for k, v in record.items() if k not in ("visible", "distance")}
+        if kept != object_record(world, world.objects[record["objectId"]]):
+            raise InvariantBroken(f"the metadata record of {record['objectId']} is stale")
 
 
 def check_world(world: World) -> None:
