@@ -31,14 +31,14 @@ class EvalResults(list):
         return self.folder / RESULTS
 
 
-def collect_results(out: Path, stopped: str | None = None, *,
-                    folder: RunFolder | None = None) -> EvalResults:
-    """The latest result line of every episode recorded in run folder `out`; read through
-    `folder` (the run's own, which kept what it appended) where given."""
+def collect_results(out: Path | RunFolder, stopped: str | None = None) -> EvalResults:
+    """The latest result line of every episode recorded in run folder `out`: a path, or the
+    run's own `RunFolder`, which kept what it appended and reads no line again."""
     from cocobench_agents.runfolder.folder import RunFolder
     from cocobench_agents.runfolder.infra import count_infra_failures, count_planner_failures
     from cocobench_agents.runfolder.summary import latest
 
-    records = latest((folder or RunFolder(out)).results())
-    return EvalResults(records, Path(out), count_infra_failures(records), stopped,
+    folder = out if isinstance(out, RunFolder) else RunFolder(out)
+    records = latest(folder.results())
+    return EvalResults(records, folder.path, count_infra_failures(records), stopped,
                        count_planner_failures(records))

@@ -98,7 +98,7 @@ def run(request: RunRequest, *, resume: bool = False, retry_errors: bool = False
         emit(events.RunStarted(folder.path, total, total - len(todo),
                                _recorded(resolved.episodes, todo, folder)))
         stopped = _execute(todo, folder, pool, request, emit, total, limit) if todo else None
-    return collect_results(folder.path, stopped, folder=folder)
+    return collect_results(folder, stopped)
 
 
 async def run_async(request: RunRequest, **options: Any) -> EvalResults:
