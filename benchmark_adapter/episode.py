@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from benchmark_adapter import goals
 from benchmark_adapter.menu import ActionSpace, MenuEntry, compact
@@ -33,6 +33,16 @@ class Observation:
     def menu_for(self, agent: str) -> list[MenuEntry]:
         """One agent's own menu entries."""
         return [e for e in self.action_menu if e.agent == agent]
+
+
+class _GoalTexts(NamedTuple):
+    """The goal and progress texts, and what they were rendered for: Γ (its aliases name
+    the objects) and which checks passed."""
+
+    space: ActionSpace
+    passed: tuple[bool, ...]
+    goal: str
+    progress: str
 
 
 class Episode:
@@ -67,7 +77,7 @@ class Episode:
         self._spaces: dict[tuple, ActionSpace] = {}
         self._menus: dict[tuple, list[MenuEntry]] = {}
         self.goals = goals.GoalSet(config)
-        self._texts: tuple = ()  # (Γ, checks passed, goal text, progress text), `_goal_texts`
+        self._texts: _GoalTexts | None = None  # the last step's, `_goal_texts`
         self._steps: list[dict[str, Any]] = []  # skill_result records, in order
         self._objects: list[dict[str, Any]] = []  # agent 0's objects now
         self._agents: list[dict[str, Any]] = []  # each agent's hand and last action now
@@ -184,11 +194,11 @@ class Episode:
         # neither, so they are the last step's.
         passed = tuple(bool(check["passed"]) for check in evaluation["checks"])
         texts = self._texts
-        if not texts or texts[0] is not space or texts[1] != passed:
-            texts = self._texts = (
+        if texts is None or texts.space is not space or texts.passed != passed:
+            texts = self._texts = _GoalTexts(
                 space, passed, goals.goal_text(self.config, space.alias_of, self.goals),
                 goals.progress_text(self.config, space.alias_of, evaluation, self.goals))
-        return texts[2], texts[3]
+        return texts.goal, texts.progress
 
     def _compact_menu(self) -> list[MenuEntry]:
         # The compact menu changes with Γ, and in D4 with what lies on the buffer.
