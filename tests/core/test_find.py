@@ -3,11 +3,19 @@
 
 from __future__ import annotations
 
+import heapq
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from benchmark_adapter.skills.navigation import MIN_AGENT_SEPARATION
+from benchmark_adapter.skills.navigation import (
+    FALLBACK_CANDIDATES,
+    MIN_AGENT_SEPARATION,
+    _contenders,
+    _near_other,
+)
 
 from .worlds import (
     DRAWER_A,
@@ -149,3 +157,40 @@ def test_find_a_missing_object(kitchen: Sim) -> None:
     assert GHOST in result.errorMessage
     assert result.native_trace == []
     assert kitchen.pose(0) == start
+
+
+def _nearest_by_ranking_all(positions, target, others):
+    """The fallback's candidates as it chose them before `_contenders`: every position
+    ranked in Python."""
+    tx, ty, tz = target["x"], target["y"], target["z"]
+
+    def rank(p):
+        penalty = 1000.0 if _near_other(p, others) else 0.0
+        return sum(((p.get("x", 0.0) - tx) ** 2, (p.get("y", 0.0) - ty) ** 2,
+                    (p.get("z", 0.0) - tz) ** 2)) + penalty
+    return heapq.nsmallest(FALLBACK_CANDIDATES, positions, key=rank), rank
+
+
+# A target among the positions (-3 to 3 m), on the grid (ties) or off it.
+_coordinate = st.one_of(st.integers(-12, 12).map(lambda k: k * 0.25), st.floats(-3, 3))
+
+
+@settings(max_examples=300, deadline=None)
+@given(cells=st.lists(st.tuples(st.integers(-12, 12), st.integers(-12, 12)), min_size=0,
+                      max_size=120, unique=True),
+       target=st.tuples(_coordinate, st.floats(0, 2), _coordinate),
+       others=st.lists(st.tuples(st.floats(-1.5, 1.5), st.floats(-1.5, 1.5)), max_size=3))
+def test_the_fallback_picks_the_candidates_ranking_every_position_picks(cells, target,
+                                                                         others) -> None:
+    """A Find's fallback ranks only the positions numpy's estimate keeps (`_contenders`):
+    its candidates, in their order, must be those the exact rank picks over every position,
+    ties (a grid's symmetric cells, a target on the grid) among them."""
+    positions = [{"x": cx * 0.25, "y": 0.9, "z": cz * 0.25} for cx, cz in cells]
+    target = dict(zip("xyz", target))
+    # Teammates about the target, where they push candidates out (`rank`'s penalty).
+    others = [(target["x"] + dx, target["z"] + dz) for dx, dz in others]
+    expected, rank = _nearest_by_ranking_all(positions, target, others)
+    chosen = heapq.nsmallest(FALLBACK_CANDIDATES, _contenders(positions, target, others),
+                             key=rank)
+    assert chosen == expected
+    assert all(a is b for a, b in zip(chosen, expected))
