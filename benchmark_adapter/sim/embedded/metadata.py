@@ -66,6 +66,23 @@ def _record_inputs(world: World, obj: SimObject) -> tuple:
             obj.is_cooked)
 
 
+def agent_record(agent: SimAgent) -> dict[str, Any]:
+    """An agent's pose, as its metadata's ``agent``."""
+    return {
+        "name": agent.name,
+        "position": {"x": agent.x, "y": AGENT_Y, "z": agent.z},
+        "rotation": {"x": 0.0, "y": agent.yaw, "z": 0.0},
+        "cameraHorizon": agent.horizon,
+        "isStanding": agent.standing,
+    }
+
+
+def inventory(world: World, agent: SimAgent) -> list[dict[str, Any]]:
+    """What an agent holds, as its metadata's ``inventoryObjects``."""
+    held = world.objects.get(agent.held) if agent.held else None
+    return [{"objectId": held.id, "objectType": held.type}] if held else []
+
+
 class ObjectTable:
     """Object records of the current world version, shared by every agent's metadata."""
 
@@ -121,19 +138,12 @@ class AgentMetadata(Mapping[str, Any]):
 
     def __init__(self, table: ObjectTable, agent: SimAgent, scene: str) -> None:
         self._table, self._agent, self._objects = table, agent, None
-        held = table.world.objects.get(agent.held) if agent.held else None
         self._data = {
             "agentId": agent.index,
             "sceneName": scene,
             "fov": 90.0,
-            "agent": {
-                "name": agent.name,
-                "position": {"x": agent.x, "y": AGENT_Y, "z": agent.z},
-                "rotation": {"x": 0.0, "y": agent.yaw, "z": 0.0},
-                "cameraHorizon": agent.horizon,
-                "isStanding": agent.standing,
-            },
-            "inventoryObjects": ([{"objectId": held.id, "objectType": held.type}] if held else []),
+            "agent": agent_record(agent),
+            "inventoryObjects": inventory(table.world, agent),
             "lastAction": agent.last_action,
             "lastActionSuccess": agent.last_success,
             "errorMessage": agent.last_error,
