@@ -82,7 +82,6 @@ class Episode:
         self._objects: list[dict[str, Any]] = []  # agent 0's objects now
         self._agents: list[dict[str, Any]] = []  # each agent's hand and last action now
         self._frame_cache: dict[tuple[int, str], bytes] = {}
-        self._pixels_cache: dict[tuple[int, str], Any] = {}
 
     # -- lifecycle ---------------------------------------------------------------------
 
@@ -233,26 +232,25 @@ class Episode:
                                                            self.frame_size)
         return self._frame_cache[key]
 
-    def frame_pixels(self, agent: str) -> Any:
-        """What `frame` shows, as an RGB array (height, width, 3), once per step: the
+    def frame_pixels(self, agent: str, out: Any = None) -> Any:
+        """What `frame` shows, as an RGB array (height, width, 3) the caller owns: written
+        into `out` when given (a uint8 array of that shape), else a new array. The
         controller's own pixels where it gives them (`frame_rgb`: the embedded simulator's,
         no PNG encoded and decoded), else the PNG decoded."""
-        key = (len(self.items), agent)
-        if key not in self._pixels_cache:
-            self._pixels_cache = {k: v for k, v in self._pixels_cache.items() if k[0] == key[0]}
-            pixels = getattr(self.controller, "frame_rgb", None)
-            if pixels is not None:
-                index = self.config.agent_ids.index(agent)
-                array = pixels(index, self.frame_size, self.frame_size)
-            else:
-                import io
+        pixels = getattr(self.controller, "frame_rgb", None)
+        if pixels is not None:
+            index = self.config.agent_ids.index(agent)
+            return pixels(index, self.frame_size, self.frame_size, out)
+        import io
 
-                import numpy
-                from PIL import Image
+        import numpy
+        from PIL import Image
 
-                array = numpy.asarray(Image.open(io.BytesIO(self.frame(agent))).convert("RGB"))
-            self._pixels_cache[key] = array
-        return self._pixels_cache[key]
+        array = numpy.asarray(Image.open(io.BytesIO(self.frame(agent))).convert("RGB"))
+        if out is None:
+            return array.copy()  # (asarray's may be read-only)
+        out[...] = array
+        return out
 
 
 #: How many Γs (and compact menus) an episode keeps by key.

@@ -223,13 +223,23 @@ class CoCoBenchParallelEnv(ParallelEnv):
         episode = self._live()
         image = episode.spec.obs_mode == IMAGE
         return {s: self._seat_spaces(s).encode(episode.view(s),
-                                               self._frames(s) if image else None, episode)
+                                               self._seat_frame(s) if image else None, episode)
                 for s in self.agents}
 
-    def _frames(self, seat: str) -> list[np.ndarray]:
+    def _seat_frame(self, seat: str) -> np.ndarray:
+        """The seat's frame, a new array (each observation owns its data: Gymnasium's
+        check_env): its robot's camera, or for the team's seats every robot's in its slot,
+        black past this task's robots. Each pixel is written once, straight from the
+        simulator's pixels (zeroing the whole array first cost a tenth of a C0 step)."""
         episode = self._live()
-        agents = episode.spec.config.agent_ids if seat in (TEAM_SEAT, LEADER_SEAT) else [seat]
-        return [episode.episode.frame_pixels(a) for a in agents]
+        out = np.empty(self._seat_spaces(seat).image_shape, np.uint8)
+        if seat not in (TEAM_SEAT, LEADER_SEAT):
+            return episode.episode.frame_pixels(seat, out=out)
+        robots = episode.spec.config.agent_ids
+        for slot, agent in zip(out, robots):
+            episode.episode.frame_pixels(agent, out=slot)
+        out[len(robots):] = 0
+        return out
 
     def _info(self) -> dict[str, Any]:
         episode = self._live()

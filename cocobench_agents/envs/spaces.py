@@ -28,7 +28,7 @@ from gymnasium.vector.utils import shared_memory
 
 from cocobench_agents.envs.features import WorldFeatures
 from cocobench_agents.envs.seated import DONE, EnvError, SeatAction, SeatedEpisode, SeatView
-from cocobench_agents.graphs.registry import LEADER_SEAT, TEAM_SEAT
+from cocobench_agents.graphs.registry import LEADER_SEAT
 from cocobench_agents.prompts.parse import MESSAGE_LIMIT
 
 #: The characters a sampled message is drawn from (any text is accepted).
@@ -134,10 +134,11 @@ class SeatSpaces:
             fields["frame"] = spaces.Box(0, 255, image_shape, np.uint8)
         self.observation = spaces.Dict(fields)
 
-    def encode(self, view: SeatView, frames: list[np.ndarray] | None,
+    def encode(self, view: SeatView, frame: np.ndarray | None,
                episode: SeatedEpisode | None = None) -> dict[str, Any]:
-        """`view` as an observation of these spaces (`frames`: the robots' RGB frames under
-        image conditions; `episode`: the live episode, which the numeric tables read)."""
+        """`view` as an observation of these spaces (`frame`: under image conditions, the
+        seat's frame, which the observation takes as it is; `episode`: the live episode,
+        which the numeric tables read)."""
         ids = np.zeros(self.max_menu + 2, np.int8)
         ids[0] = 1  # DONE
         for option in view.menu:
@@ -153,21 +154,8 @@ class SeatSpaces:
         if self.broadcasts:
             obs["sends_message"] = np.int64(view.acting and view.sends_message)
         if self.image_shape is not None:
-            obs["frame"] = self._image(frames or [])
+            obs["frame"] = frame if frame is not None else np.zeros(self.image_shape, np.uint8)
         return obs
-
-    def _image(self, frames: list[np.ndarray]) -> np.ndarray:
-        if self.seat in (TEAM_SEAT, LEADER_SEAT):
-            # Each pixel written once: the robots' frames, then black for the slots past
-            # this task's robots (zeroing the whole array first cost a tenth of a C0 step).
-            out = np.empty(self.image_shape, np.uint8)
-            for i, array in enumerate(frames):
-                out[i] = array
-            out[len(frames):] = 0
-            return out
-        # A copy: the episode keeps its frame for the step (and a reset to the same state
-        # finds it again), and each observation must own its data (Gymnasium's check_env).
-        return frames[0].copy() if frames else np.zeros(self.image_shape, np.uint8)
 
     def decode(self, action: Any) -> SeatAction:
         """An action of this seat's space (an id, or for a broadcasting seat a dict with

@@ -61,3 +61,29 @@ def test_the_pixels_an_environment_reads_are_the_pngs():
         for agent in config.agent_ids:
             png = np.asarray(Image.open(io.BytesIO(episode.frame(agent))).convert("RGB"))
             assert np.array_equal(episode.frame_pixels(agent), png)
+
+
+def test_the_pixels_are_the_callers_written_into_its_array_or_a_new_one():
+    """`Episode.frame_pixels` writes into the caller's `out` (an environment's observation
+    slot) or returns a new array: either way the caller owns what it gets, and a later
+    frame never changes it, though the simulator keeps the picture and its room."""
+    import numpy as np
+
+    config = load_task(SHARED_TASKS / f"{CONFIGS[0]}.json")
+    episode = Episode(config)
+    episode.reset()
+    agent = config.agent_ids[0]
+    first = episode.frame_pixels(agent)
+    again = episode.frame_pixels(agent)
+    slots = np.full((2, *first.shape), 7, np.uint8)
+    slot = slots[1]
+    written = episode.frame_pixels(agent, out=slot)
+    assert written is slot and np.array_equal(written, first)
+    assert (slots[0] == 7).all()  # only its slot is written
+    assert not np.shares_memory(first, again) and first.flags.writeable
+    kept = first.copy()
+    first[:] = 0  # the caller's to change: the next frame is drawn as before
+    assert np.array_equal(episode.frame_pixels(agent), kept)
+    for call in list(oracle_plan(config))[:3]:
+        episode.step(call)
+    assert np.array_equal(again, kept)  # a later frame leaves an earlier one as it was

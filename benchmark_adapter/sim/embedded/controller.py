@@ -96,12 +96,14 @@ class EmbeddedController:
 
         return render_agent_frame(self._view(agent), width, height)
 
-    def frame_rgb(self, agent: int, width: int = 300, height: int = 300) -> Any:
-        """The pixels of `frame` as an RGB array (height, width, 3), no PNG encoded: what
-        an environment's observation holds."""
+    def frame_rgb(self, agent: int, width: int = 300, height: int = 300,
+                  out: Any = None) -> Any:
+        """The pixels of `frame` as an RGB array (height, width, 3), no PNG encoded, written
+        into `out` when given, else into a new array: what an environment's observation
+        holds."""
         from benchmark_adapter.sim.embedded.render import agent_view_pixels
 
-        return agent_view_pixels(self._view(agent), width, height)
+        return agent_view_pixels(self._view(agent), width, height, out)
 
     def _view(self, agent: int) -> dict[str, Any]:
         """What the renderer draws for agent `agent`: its pose, objects and the others.
