@@ -329,14 +329,6 @@ def _place_label(draw, text: str, box: Box, font, taken: list[Box], w: int, h: i
     return cand
 
 
-def _draw_labels(draw, labels: list[tuple[str, Box]], font, w: int, h: int, taken: list) -> None:
-    # Labels go on top of all shapes so a near object never hides a far object's name.
-    for text, box in labels:
-        lb = _place_label(draw, text, box, font, taken, w, h)
-        draw.rectangle(lb, fill=(255, 255, 255), outline=(90, 90, 90))
-        draw.text((lb[0] + 3, lb[1] + 2), text, fill=(0, 0, 0), font=font, anchor="lt")
-
-
 def _held_box(draw, view: dict, font, w: int, h: int) -> tuple[str, Box] | None:
     """Text and bottom-right box of the ``holding: ...`` badge, or None when empty-handed."""
     held = [
@@ -371,7 +363,13 @@ def draw_agent_view(view: dict, width: int = 300, height: int = 300) -> Image.Im
     Width and height are clamped up to at least 300 px. The picture may be shared with an
     earlier call that showed the same: copy it before drawing on it.
     """
-    return _kept_picture(view, width, height).picture
+    kept = _kept_picture(view, width, height)
+    if kept.picture is None:  # made once per picture kept (a race makes it twice, alike)
+        picture = _room(*kept.size, kept.horizon).copy()
+        if kept.part is not None:
+            picture.paste(kept.part, kept.drawn[:2])
+        kept.picture = picture
+    return kept.picture
 
 
 def agent_view_pixels(view: dict, width: int = 300, height: int = 300, out: Any = None) -> Any:
@@ -384,14 +382,13 @@ def agent_view_pixels(view: dict, width: int = 300, height: int = 300, out: Any 
     import numpy  # here: only environments read pixels, and numpy takes a while to import
 
     kept = _kept_picture(view, width, height)
-    picture = kept.picture
-    pixels = numpy.empty((picture.height, picture.width, 3), numpy.uint8) if out is None \
-        else out
-    pixels[...] = _room_pixels(picture.width, picture.height, kept.horizon)
-    if kept.drawn is not None:
+    w, h = kept.size
+    pixels = numpy.empty((h, w, 3), numpy.uint8) if out is None else out
+    pixels[...] = _room_pixels(w, h, kept.horizon)
+    if kept.part is not None:
         left, top, right, bottom = kept.drawn
         if kept.patch is None:  # read once per picture kept (a race reads it twice, alike)
-            patch = numpy.asarray(picture.crop(kept.drawn))
+            patch = numpy.asarray(kept.part)
             patch.flags.writeable = False
             kept.patch = patch
         pixels[top:bottom, left:right] = kept.patch
@@ -400,13 +397,16 @@ def agent_view_pixels(view: dict, width: int = 300, height: int = 300, out: Any 
 
 @dataclass
 class _KeptPicture:
-    """A picture drawn, the whole-pixel box drawn on its room (None: nothing), its camera's
-    horizon (which room) and the pixels of that box, read when first asked for."""
+    """A picture as drawn: its size, its camera's horizon (which room), the part drawn on
+    the room and the whole-pixel box it covers (None for both: nothing is); then, made when
+    first asked for, the part's pixels and the whole picture."""
 
-    picture: Image.Image
-    drawn: Box | None
+    size: tuple[int, int]
     horizon: float
+    part: Image.Image | None
+    drawn: Box | None
     patch: Any = None
+    picture: Image.Image | None = None
 
 
 def _kept_picture(view: dict, width: int, height: int) -> _KeptPicture:
@@ -415,7 +415,7 @@ def _kept_picture(view: dict, width: int, height: int) -> _KeptPicture:
     cam = _Camera(view, w, h)
     items = _visible_items(view, cam)
     return _kept(_pictures, _picture_key(cam, items, view),
-                 lambda: _KeptPicture(*_draw_view(view, cam, items), cam.horizon),
+                 lambda: _KeptPicture((w, h), cam.horizon, *_draw_view(view, cam, items)),
                  PICTURES_KEPT)
 
 
@@ -439,37 +439,83 @@ def _picture_key(cam: _Camera, items: list[tuple[float, str, dict]], view: dict)
 _SHOWN_STATES = ("receptacle", "openable", "isOpen", "isSliced", "toggleable", "isToggled")
 
 
-def _draw_view(view: dict, cam: _Camera,
-               items: list[tuple[float, str, dict]]) -> tuple[Image.Image, Box | None]:
-    """The picture, and the whole-pixel box that holds everything drawn on the room (None
-    when nothing is)."""
+def _draw_view(view: dict, cam: _Camera, items: list[tuple[float, str, dict]]
+               ) -> tuple[Image.Image | None, Box | None]:
+    """What is drawn on the room, as a picture of the whole-pixel box that holds it all, and
+    that box (None and None when nothing is drawn). Laid out first (every shape's box, every
+    label's place), then painted on that box alone, in the same order: copying the whole
+    room to paint on, and reading the box back out of it, cost a fifth of a picture."""
     w, h = cam.w, cam.h
-    img = _room(w, h, cam.horizon).copy()
-    draw = ImageDraw.Draw(img)
+    room = _room(w, h, cam.horizon)
+    measure = ImageDraw.Draw(room)  # measures labels only: nothing is drawn on the room
     font = _font()
+    shapes: list[tuple[str, dict, Box]] = []
     labels: list[tuple[str, Box]] = []
-    shapes: list[Box] = []
+    extents: list[Box] = []
     for _, kind, rec in items:
         if kind == "agent":
             box = cam.project(rec["position"], (0.45, 1.1))
-            _draw_agent(draw, box)
             labels.append((str(rec.get("name", "agent")), box))
-            shapes.append(box)
-            continue
-        default = (0.45, 0.3) if rec.get("receptacle") else (0.18, 0.18)
-        box = cam.project(rec["position"], TYPE_SIZES.get(rec.get("objectType"), default))
-        _draw_object(draw, rec, box)
-        labels.append((object_label(rec), box))
-        x0, y0, x1, y1 = box  # an open door swings out a quarter of the width on the right
-        shapes.append((x0, y0, x1 + (x1 - x0) * 0.25, y1) if rec.get("openable") else box)
-    held = _held_box(draw, view, font, w, h)
+            extents.append(box)
+        else:
+            default = (0.45, 0.3) if rec.get("receptacle") else (0.18, 0.18)
+            box = cam.project(rec["position"], TYPE_SIZES.get(rec.get("objectType"), default))
+            labels.append((object_label(rec), box))
+            x0, y0, x1, y1 = box  # an open door swings out a quarter of the width on the right
+            extents.append((x0, y0, x1 + (x1 - x0) * 0.25, y1) if rec.get("openable") else box)
+        shapes.append((kind, rec, box))
+    held = _held_box(measure, view, font, w, h)
     # The badge's area is reserved first so object labels are never hidden beneath it.
     taken = [held[1]] if held else []
-    _draw_labels(draw, labels, font, w, h, taken)
+    # Labels go on top of all shapes so a near object never hides a far object's name.
+    placed = [(text, _place_label(measure, text, box, font, taken, w, h))
+              for text, box in labels]
+    drawn = _drawn_box([*extents, *taken], w, h)
+    if drawn is None:
+        return None, None
+    part = room.crop(drawn)
+    draw = _Shifted(ImageDraw.Draw(part), drawn[0], drawn[1])
+    for kind, rec, box in shapes:
+        if kind == "agent":
+            _draw_agent(draw, box)
+        else:
+            _draw_object(draw, rec, box)
+    for text, lb in placed:
+        draw.rectangle(lb, fill=(255, 255, 255), outline=(90, 90, 90))
+        draw.text((lb[0] + 3, lb[1] + 2), text, fill=(0, 0, 0), font=font, anchor="lt")
     if held:
         draw.rectangle(held[1], fill=(255, 244, 190), outline=(120, 100, 30), width=2)
-        draw.text((held[1][0] + 5, held[1][1] + 4), held[0], fill=(0, 0, 0), font=font, anchor="lt")
-    return img, _drawn_box([*shapes, *taken], w, h)
+        draw.text((held[1][0] + 5, held[1][1] + 4), held[0], fill=(0, 0, 0), font=font,
+                  anchor="lt")
+    return part, drawn
+
+
+class _Shifted:
+    """Draws on a part of the picture (the drawn box) given the picture's coordinates: each
+    is computed as on the whole picture, then moved by the part's whole-pixel corner, which
+    is exact, so Pillow rounds it to the same pixel of the part."""
+
+    def __init__(self, draw: ImageDraw.ImageDraw, left: int, top: int) -> None:
+        self.draw, self.left, self.top = draw, left, top
+
+    def rectangle(self, xy: Box, **kwargs: Any) -> None:
+        self.draw.rectangle(self._box(xy), **kwargs)
+
+    def ellipse(self, xy: Box, **kwargs: Any) -> None:
+        self.draw.ellipse(self._box(xy), **kwargs)
+
+    def line(self, xy: Box, **kwargs: Any) -> None:
+        self.draw.line(self._box(xy), **kwargs)
+
+    def polygon(self, points: list[tuple[float, float]], **kwargs: Any) -> None:
+        self.draw.polygon([(x - self.left, y - self.top) for x, y in points], **kwargs)
+
+    def text(self, xy: tuple[float, float], text: str, **kwargs: Any) -> None:
+        self.draw.text((xy[0] - self.left, xy[1] - self.top), text, **kwargs)
+
+    def _box(self, xy: Box) -> Box:
+        x0, y0, x1, y1 = xy
+        return x0 - self.left, y0 - self.top, x1 - self.left, y1 - self.top
 
 
 #: Pixels around a drawn shape's box that its rasterised edge may touch (Pillow rounds the
