@@ -444,7 +444,8 @@ def _draw_view(view: dict, cam: _Camera, items: list[tuple[float, str, dict]]
     """What is drawn on the room, as a picture of the whole-pixel box that holds it all, and
     that box (None and None when nothing is drawn). Laid out first (every shape's box, every
     label's place), then painted on that box alone, in the same order: copying the whole
-    room to paint on, and reading the box back out of it, cost a fifth of a picture."""
+    room to paint on, and reading the box back out of it, cost an eighth of a picture drawn
+    (350 -> 307 us)."""
     w, h = cam.w, cam.h
     room = _room(w, h, cam.horizon)
     measure = ImageDraw.Draw(room)  # measures labels only: nothing is drawn on the room
