@@ -4,11 +4,12 @@ making the robots' camera pixels, apart from the rest of the step.
 Plays random legal moves (from each seat's mask) on the 36 shared configs under C0_image and
 D1_image (text off: the frames, not the prompt, are measured) and times, in CPU time, every
 `Episode.frame_pixels` call (the embedded simulator's view, its picture drawn or the kept
-one, its pixels) and within it the pictures drawn (`render._draw_view`). Prints, per
-condition, the median over the runs of: env steps per CPU-second, the frames' ms per step
-(and the pictures drawn per step, and their ms), and the rest of the step's ms. The rate an
-image condition can reach is 1,000 / (rest + frames) steps per CPU-second: compare the
-frames' ms with the 2 ms a step has at the aim of 500 env steps/s.
+one, its pixels written into the observation's array) and within it the pictures drawn
+(`render._draw_view`). Prints, per condition, the median over the runs of: env steps per
+CPU-second, the frames' ms per step (and the pictures drawn per step, and their ms), and the
+rest of the step's ms. The rate an image condition can reach is 1,000 / (rest + frames)
+steps per CPU-second: compare the frames' ms with the 2 ms a step has at the aim of 500 env
+steps/s.
 
 Usage: python bench/env_frames.py [--steps N] [--repeats N] [--condition C]…
 (needs the env extra: pip install -e '.[env]')
