@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import heapq
 import math
+import threading
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -133,22 +134,25 @@ def _contenders(positions: Sequence[Mapping[str, float]], target: Mapping[str, f
 #: read-only list, and reading 576 positions into an array took 0.8 ms, more than ranking.
 _KEPT_COORDINATES = 64
 _coordinates_kept: dict[int, tuple[Sequence[Mapping[str, float]], tuple]] = {}
+_coordinates_lock = threading.Lock()
 
 
 def _coordinates(positions: Sequence[Mapping[str, float]]) -> tuple[Any, Any, Any]:
     """The positions' x, y and z as read-only numpy arrays (an absent one 0, as `rank`)."""
     import numpy
 
-    kept = _coordinates_kept.get(id(positions))
-    if kept is not None and kept[0] is positions:
+    with _coordinates_lock:
+        kept = _coordinates_kept.get(id(positions))
+    if kept is not None:
         return kept[1]
     columns = tuple(numpy.array([p.get(axis, 0.0) for p in positions], dtype=float)
                     for axis in "xyz")
     for column in columns:
         column.flags.writeable = False
-    if len(_coordinates_kept) >= _KEPT_COORDINATES:
-        _coordinates_kept.pop(next(iter(_coordinates_kept)), None)
-    _coordinates_kept[id(positions)] = (positions, columns)
+    with _coordinates_lock:  # episodes may play in threads (the renderer's caches: alike)
+        if len(_coordinates_kept) >= _KEPT_COORDINATES:
+            _coordinates_kept.pop(next(iter(_coordinates_kept)))
+        _coordinates_kept[id(positions)] = (positions, columns)
     return columns
 
 
