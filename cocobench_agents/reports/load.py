@@ -84,33 +84,40 @@ class RunInfo:
 
     @property
     def plan(self) -> Mapping[str, Any]:
-        return self.record.get("plan") or {}
+        plan = self.record.get("plan")
+        return plan if isinstance(plan, Mapping) else {}
 
     @property
     def arms(self) -> list[str]:
         """The run's prompt-suite arms, in the order given (none for a single suite)."""
-        return list(self.plan.get("arms") or [])
+        return self._listed("arms")
 
     @property
     def models(self) -> list[str]:
         """The report rows' models the plan names: each model once per arm."""
-        models = list(self.plan.get("models") or [])
+        models = self._listed("models")
         return [arm_label(m, a) for m in models for a in self.arms] if self.arms else models
 
     @property
     def conditions(self) -> list[str]:
-        return list(self.plan.get("conditions") or [])
+        return self._listed("conditions")
 
     @property
     def planned(self) -> int | None:
-        """Episodes the run's plan asked for (None when run.json does not say)."""
-        plan = self.plan
-        tasks, models, conds = plan.get("task_ids"), plan.get("models"), plan.get("conditions")
+        """Episodes the run's plan asked for (None when run.json does not say, or says it in
+        a shape no run writes: a run folder is data, whatever it holds)."""
+        tasks, models, conds = (self._listed(key) for key in ("task_ids", "models", "conditions"))
         if not (tasks and models and conds):
             return None
-        arms = max(1, len(self.arms))
-        epochs = plan.get("epochs") or recorded_settings(self.record)[0].get("epochs") or 1
-        return len(tasks) * len(models) * len(conds) * arms * int(epochs)
+        epochs = self.plan.get("epochs") or recorded_settings(self.record)[0].get("epochs") or 1
+        if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
+            return None
+        return len(tasks) * len(models) * len(conds) * max(1, len(self.arms)) * epochs
+
+    def _listed(self, key: str) -> list[str]:
+        """The plan's list of names under `key` (empty when it holds anything else)."""
+        value = self.plan.get(key)
+        return [str(name) for name in value] if isinstance(value, list) else []
 
 
 @dataclass

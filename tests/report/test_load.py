@@ -8,7 +8,9 @@ from pathlib import Path
 import pytest
 
 from cocobench_agents.reports import NotARunFolder, build_report, compute_tables, load_runs
+from cocobench_agents.reports.load import RunInfo
 from cocobench_agents.reports.render import to_csv
+from cocobench_agents.runfolder.upgrade import RECORD_VERSION
 
 from .helpers import (
     NOT_RUN_FOLDERS,
@@ -205,3 +207,28 @@ def test_every_terminal_state_a_report_shows_is_explained_in_its_docs():
     for kind in (*FAILURE_KINDS, INFRA_KIND, PLANNER_KIND, UNRECORDED_KIND):
         assert f"`{kind}`" in reports, kind
     assert "planner error" in (root / "README.md").read_text()
+
+
+@pytest.mark.parametrize("epochs", [[[1]], "3", True, -2, 2.5, {"n": 1}])
+@pytest.mark.parametrize("where", ["plan", "request"])
+def test_a_plan_in_a_shape_no_run_writes_plans_nothing(epochs, where) -> None:
+    """What run.json says it planned is read only in the shapes a run writes: epochs a
+    positive integer, the plan's names lists (CI's run-folder fuzz found a nested list as
+    the request's epochs crashing `cocobench report`)."""
+    plan = {"task_ids": ["t1", "t2"], "models": ["greedy"], "conditions": ["C0_blind"]}
+    record = {"plan": {**plan, "epochs": epochs}} if where == "plan" else \
+        {"record_version": RECORD_VERSION, "plan": plan, "request": {"epochs": epochs}}
+    run = RunInfo(path=Path("run"), name="run", record=record, lines=0, torn_tail=False,
+                  episodes=0, infra_errors=0)
+    assert run.planned is None
+    good = RunInfo(path=Path("run"), name="run", record={"plan": {**plan, "epochs": 3}},
+                   lines=0, torn_tail=False, episodes=0, infra_errors=0)
+    assert good.planned == 6
+
+
+@pytest.mark.parametrize("plan", [[1, 2], "plan", 7, {"task_ids": "t1", "models": 3,
+                                                     "conditions": None, "arms": 5}])
+def test_a_plan_of_another_shape_names_no_models_or_conditions(plan) -> None:
+    run = RunInfo(path=Path("run"), name="run", record={"plan": plan}, lines=0,
+                  torn_tail=False, episodes=0, infra_errors=0)
+    assert (run.models, run.conditions, run.arms, run.planned) == ([], [], [], None)
