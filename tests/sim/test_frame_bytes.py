@@ -87,3 +87,25 @@ def test_the_pixels_are_the_callers_written_into_its_array_or_a_new_one():
     for call in list(oracle_plan(config))[:3]:
         episode.step(call)
     assert np.array_equal(again, kept)  # a later frame leaves an earlier one as it was
+
+
+def test_a_controller_without_pixels_gives_its_png_decoded_into_the_callers_array():
+    """A backend with no `frame_rgb` (AI2-THOR's) has its PNG decoded: into `out` when
+    given, else into a new array the caller may write."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    config = load_task(SHARED_TASKS / f"{CONFIGS[0]}.json")
+    episode = Episode(config)
+    episode.reset()
+    episode.controller.frame_rgb = None  # as a controller that gives no pixels
+    agent = config.agent_ids[0]
+    png = np.asarray(Image.open(io.BytesIO(episode.frame(agent))).convert("RGB"))
+    fresh = episode.frame_pixels(agent)
+    assert np.array_equal(fresh, png) and fresh.flags.writeable
+    slots = np.zeros((2, *png.shape), np.uint8)
+    slot = slots[0]
+    assert episode.frame_pixels(agent, out=slot) is slot
+    assert np.array_equal(slots[0], png) and not slots[1].any()
