@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import io
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from PIL import Image, ImageChops
 
 from benchmark_adapter.sim.embedded.render import (
@@ -184,3 +186,35 @@ def test_the_kept_labels_font_draws_as_freetype_does():
                                      anchor="lt")
         pictures.append(picture.tobytes())
     assert pictures[0] == pictures[1] == pictures[2]
+
+
+@settings(max_examples=300, deadline=None)
+@given(text=st.sampled_from(["Fridge (closed)", "Apple", "agent_2", "Mug (dirty)",
+                             "holding: Knife, Mug"]) | st.text("AVWaTo (),:_.ji", max_size=14),
+       x=st.floats(1, 150), y=st.floats(1, 60), left=st.integers(0, 3),
+       top=st.integers(0, 3), badge=st.booleans(), seed=st.integers(0, 2**16))
+def test_a_kept_label_is_the_pixels_drawing_it_gives(text, x, y, left, top, badge, seed):
+    """A label is drawn once and its pixels pasted wherever a label of the same text, box
+    size and sub-pixel start class comes back (a quarter of a picture's drawing): pasted
+    or drawn, the picture is what Pillow draws there, on any background, at any fractional
+    place (the box's corner and the text's start are fractional, the part's corner whole),
+    the second time (kept) as the first."""
+    import random
+
+    from PIL import ImageDraw
+
+    from benchmark_adapter.sim.embedded import render
+
+    font = render._font()
+    style = render._BADGE if badge else render._LABEL
+    measure = ImageDraw.Draw(Image.new("RGB", (1, 1)))
+    bbox = render._text_box(measure, text, font)
+    box = (x, y, x + bbox[2] - bbox[0] + 6, y + bbox[3] - bbox[1] + 4)
+    noise = random.Random(seed).randbytes(220 * 90 * 3)
+    for _ in range(2):  # drawn (or pasted, kept from an earlier example), then kept
+        part = Image.frombytes("RGB", (220, 90), noise)
+        render._Shifted(part, left, top).label(text, box, style, font)
+        expected = Image.frombytes("RGB", (220, 90), noise)
+        style.draw(ImageDraw.Draw(expected), (x - left, y - top, box[2] - left, box[3] - top),
+                   (x + style.inset[0] - left, y + style.inset[1] - top), text, font)
+        assert part.tobytes() == expected.tobytes()

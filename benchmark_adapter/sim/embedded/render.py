@@ -106,6 +106,10 @@ class _KeptLabelsFont(ImageFont.FreeTypeFont):
                 or named.get("direction") is not None or named.get("features") is not None
                 or named.get("stroke_width", 0) != 0):
             return False
+        return self.pen_on_whole_pixels(text)
+
+    def pen_on_whole_pixels(self, text: str) -> bool:
+        """Whether FreeType's own layout of `text` advances the pen by whole pixels."""
         return _kept(_pens, (self.size, text), lambda: all(
             self.getlength(text[:end], "L").is_integer()
             and self.getlength(text[end - 1], "L").is_integer()
@@ -313,7 +317,7 @@ def _draw_agent(draw: ImageDraw.ImageDraw, box: Box) -> None:
 
 def _place_label(draw, text: str, box: Box, font, taken: list[Box], w: int, h: int) -> Box:
     """Label box just above (else below) the shape, stepping away until no label overlaps."""
-    left, top, right, bottom = draw.textbbox((0, 0), text, font=font)
+    left, top, right, bottom = _text_box(draw, text, font)
     tw, th = right - left + 6, bottom - top + 4
     x = min(max((box[0] + box[2]) / 2 - tw / 2, 1), w - tw - 1)
     above, below = box[1] - th - 2, box[3] + 2
@@ -337,7 +341,7 @@ def _held_box(draw, view: dict, font, w: int, h: int) -> tuple[str, Box] | None:
     if not held:
         return None
     text = "holding: " + ", ".join(held)
-    bb = draw.textbbox((0, 0), text, font=font)
+    bb = _text_box(draw, text, font)
     return text, (w - (bb[2] - bb[0]) - 14, h - (bb[3] - bb[1]) - 12, w - 4, h - 4)
 
 
@@ -475,19 +479,16 @@ def _draw_view(view: dict, cam: _Camera, items: list[tuple[float, str, dict]]
     if drawn is None:
         return None, None
     part = room.crop(drawn)
-    draw = _Shifted(ImageDraw.Draw(part), drawn[0], drawn[1])
+    draw = _Shifted(part, drawn[0], drawn[1])
     for kind, rec, box in shapes:
         if kind == "agent":
             _draw_agent(draw, box)
         else:
             _draw_object(draw, rec, box)
     for text, lb in placed:
-        draw.rectangle(lb, fill=(255, 255, 255), outline=(90, 90, 90))
-        draw.text((lb[0] + 3, lb[1] + 2), text, fill=(0, 0, 0), font=font, anchor="lt")
+        draw.label(text, lb, _LABEL, font)
     if held:
-        draw.rectangle(held[1], fill=(255, 244, 190), outline=(120, 100, 30), width=2)
-        draw.text((held[1][0] + 5, held[1][1] + 4), held[0], fill=(0, 0, 0), font=font,
-                  anchor="lt")
+        draw.label(held[0], held[1], _BADGE, font)
     return part, drawn
 
 
@@ -496,8 +497,8 @@ class _Shifted:
     is computed as on the whole picture, then moved by the part's whole-pixel corner, which
     is exact, so Pillow rounds it to the same pixel of the part."""
 
-    def __init__(self, draw: ImageDraw.ImageDraw, left: int, top: int) -> None:
-        self.draw, self.left, self.top = draw, left, top
+    def __init__(self, part: Image.Image, left: int, top: int) -> None:
+        self.part, self.draw, self.left, self.top = part, ImageDraw.Draw(part), left, top
 
     def rectangle(self, xy: Box, **kwargs: Any) -> None:
         self.draw.rectangle(self._box(xy), **kwargs)
@@ -514,9 +515,100 @@ class _Shifted:
     def text(self, xy: tuple[float, float], text: str, **kwargs: Any) -> None:
         self.draw.text((xy[0] - self.left, xy[1] - self.top), text, **kwargs)
 
+    def label(self, text: str, box: Box, style: _LabelStyle, font: Any) -> None:
+        """`text` in a box drawn in `style`: the kept pixels of a label drawn alike
+        (`_label_patch`) pasted, else drawn here."""
+        rect = self._box(box)
+        start = (box[0] + style.inset[0] - self.left, box[1] + style.inset[1] - self.top)
+        kept = _label_patch(text, rect, start, style, font)
+        if kept is None:
+            style.draw(self.draw, rect, start, text, font)
+        else:
+            patch, (dx, dy) = kept
+            self.part.paste(patch, (int(rect[0]) + dx, int(rect[1]) + dy))
+
     def _box(self, xy: Box) -> Box:
         x0, y0, x1, y1 = xy
         return x0 - self.left, y0 - self.top, x1 - self.left, y1 - self.top
+
+
+@dataclass(frozen=True)
+class _LabelStyle:
+    """How a label's box is drawn, and where in it its text starts."""
+
+    fill: tuple[int, int, int]
+    outline: tuple[int, int, int]
+    width: int
+    inset: tuple[int, int]
+
+    def draw(self, draw: ImageDraw.ImageDraw, rect: Box, start: tuple[float, float],
+             text: str, font: Any) -> None:
+        draw.rectangle(rect, fill=self.fill, outline=self.outline, width=self.width)
+        draw.text(start, text, fill=(0, 0, 0), font=font, anchor="lt")
+
+
+_LABEL = _LabelStyle((255, 255, 255), (90, 90, 90), 1, (3, 2))  # an object's or agent's name
+_BADGE = _LabelStyle((255, 244, 190), (120, 100, 30), 2, (5, 4))  # "holding: ..."
+#: How many labels' pixels are kept (`_label_patch`; each a few kB).
+LABELS_KEPT = 1024
+_labels: OrderedDict[tuple, Any] = OrderedDict()
+_text_boxes: OrderedDict[tuple, Any] = OrderedDict()
+#: Room around a label's box on the canvas it is first drawn on, for pixels outside the box.
+_LABEL_MARGIN = 2
+
+
+def _text_box(draw: ImageDraw.ImageDraw, text: str, font: Any) -> tuple:
+    """`draw.textbbox((0, 0), text, font=font)`, kept per font and text (Pillow's text
+    layout took ~15 us a label even with the font's boxes kept)."""
+    return _kept(_text_boxes, (font, draw.fontmode, text),
+                 lambda: draw.textbbox((0, 0), text, font=font))
+
+
+def _label_patch(text: str, rect: Box, start: tuple[float, float], style: _LabelStyle,
+                 font: Any) -> tuple[Image.Image, tuple[int, int]] | None:
+    """The pixels of a label drawn in `style` with its box at `rect` and its text at `start`
+    (a part's coordinates), and where they go from the box's whole-pixel corner; None where
+    they cannot be kept (a font that is not `_KeptLabelsFont`, a box left of or above the
+    part, a start whose mask is not kept by its rounding, text drawn outside its box).
+
+    Pillow draws a box at the whole pixels of its corners (`int()`), and text at its
+    start's whole pixels with the mask of its sub-pixel part; so the label is the same
+    pixels at any whole-pixel shift of these, and is kept by them relative to the corner
+    and the mask's key. Drawn once on a clear canvas and pasted after, where drawing it
+    (box, then text blended onto it) took ~75 us, a quarter of a picture drawn."""
+    if (not isinstance(font, _KeptLabelsFont) or font.layout_engine != ImageFont.Layout.BASIC
+            or min(rect[0], rect[1]) < 0):  # (int() is floor only from 0 up)
+        return None
+    # The text's mask as the font keeps it (`_KeptLabelsFont._mask_key`): this call draws
+    # greyscale text with no direction, features or stroke.
+    rounded = _start_pixels((math.modf(start[0])[0], math.modf(start[1])[0]))
+    if rounded is None or not font.pen_on_whole_pixels(text):
+        return None
+    x0, y0 = int(rect[0]), int(rect[1])
+    key = (style, font.size, text, rounded, int(rect[2]) - x0, int(rect[3]) - y0,
+           int(start[0]) - x0, int(start[1]) - y0)
+    return _kept(_labels, key, lambda: _draw_label(text, rect, start, style, font, x0, y0),
+                 LABELS_KEPT)
+
+
+def _draw_label(text: str, rect: Box, start: tuple[float, float], style: _LabelStyle,
+                font: Any, x0: int, y0: int) -> tuple[Image.Image, tuple[int, int]] | None:
+    """`_label_patch`'s pixels: the label drawn on a clear canvas shifted by whole pixels
+    (subtracting an integer from these positive coordinates is exact), cut to what was
+    drawn, which must be a solid box clear of the canvas's edges (else None: the text
+    leaves its box)."""
+    margin = _LABEL_MARGIN
+    sx, sy = x0 - margin, y0 - margin
+    size = (int(rect[2]) - x0 + 1 + 2 * margin, int(rect[3]) - y0 + 1 + 2 * margin)
+    canvas = Image.new("RGBA", size, (0, 0, 0, 0))
+    style.draw(ImageDraw.Draw(canvas), (rect[0] - sx, rect[1] - sy, rect[2] - sx, rect[3] - sy),
+               (start[0] - sx, start[1] - sy), text, font)
+    alpha = canvas.getchannel("A")
+    drawn = alpha.getbbox()
+    if (drawn is None or alpha.crop(drawn).getextrema() != (255, 255)
+            or 0 in drawn[:2] or drawn[2] == size[0] or drawn[3] == size[1]):
+        return None
+    return canvas.crop(drawn).convert("RGB"), (drawn[0] - margin, drawn[1] - margin)
 
 
 #: Pixels around a drawn shape's box that its rasterised edge may touch (Pillow rounds the
