@@ -194,3 +194,40 @@ def test_the_fallback_picks_the_candidates_ranking_every_position_picks(cells, t
                              key=rank)
     assert chosen == expected
     assert all(a is b for a, b in zip(chosen, expected))
+
+
+def test_the_fallback_reads_each_list_its_own_coordinates_from_threads() -> None:
+    """The fallback keeps the coordinates of the last position lists by the list's id, the
+    list kept with them so that no other list can take its id. Eight threads (episodes may
+    play in threads) rank lists made afresh and dropped each time, more of them than are
+    kept: each must get its own list's candidates, never another's whose id it reuses."""
+    import random
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
+
+    target = {"x": 0.1, "y": 0.9, "z": -0.2}
+
+    def positions(kind: int) -> list[dict[str, float]]:
+        cells = random.Random(kind).sample(range(625), 40)
+        return [{"x": (c % 25 - 12) * 0.25, "y": 0.9, "z": (c // 25 - 12) * 0.25}
+                for c in cells]
+
+    kinds = range(150)
+    expected = {k: _nearest_by_ranking_all(positions(k), target, [])[0] for k in kinds}
+
+    def play(seed: int) -> None:
+        rng = random.Random(seed)
+        for _ in range(300):
+            kind = rng.choice(kinds)
+            made = positions(kind)
+            rank = _nearest_by_ranking_all(made, target, [])[1]
+            assert heapq.nsmallest(FALLBACK_CANDIDATES, _contenders(made, target, []),
+                                   key=rank) == expected[kind], kind
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-5)  # threads switch often, inside the cache's reads and writes
+    try:
+        with ThreadPoolExecutor(8) as pool:
+            list(pool.map(play, range(8)))
+    finally:
+        sys.setswitchinterval(interval)

@@ -157,6 +157,36 @@ def test_a_ray_run_equals_a_local_run(ray_cluster, tmp_path):
     assert not list(folder.path.glob("**/*.tmp*")), "no temporary file left"
 
 
+@pytest.mark.slow
+def test_workers_that_cannot_build_the_planner_stop_the_run_before_any_episode(
+        ray_cluster, control, tmp_path):
+    """A node that lacks a file planner's file, or a package it imports, cannot build it:
+    the run stops at start with the workers' error ("Ray workers could not start: …"),
+    not with each episode failing. The driver builds the planner (here it may import the
+    package); the workers, whose node lacks it (the control file), cannot."""
+    strategy = tmp_path / "lab" / "node_planner.py"
+    strategy.parent.mkdir()
+    guard = (f"import os, pathlib\n"
+             f"if (pathlib.Path(os.environ.get({CONTROL_VARIABLE!r}, '/-')) / 'no-planner')"
+             f".exists():\n"
+             f"    raise ImportError(\"No module named 'lab_only_package'\")\n")
+    source = (ROOT / "tests" / "planners" / "user_planner.py").read_text()
+    strategy.write_text(source.replace("from __future__ import annotations\n",
+                                       "from __future__ import annotations\n" + guard, 1))
+    planned = plan_episodes(load_tasks("demo")[:2], ["random:7"],
+                            [Condition(f"{strategy}:build_one_node", "blind")], 1)
+    folder = new_folder(tmp_path / "no-planner")
+    (control / "no-planner").touch()
+    try:
+        with pytest.raises(WorkerError, match=r"Ray workers could not start: .*"
+                                              r"No module named 'lab_only_package'"):
+            RayExecutor().run(planned, folder, ModelPool(ModelSettings()),
+                              ExecutionSettings(jobs=2, workers=1))
+    finally:
+        (control / "no-planner").unlink()
+    assert list(folder.results()) == []
+
+
 class CountingServer(ThreadingHTTPServer):
     """An OpenAI-compatible server answering after `delay`; counts calls in flight."""
 
