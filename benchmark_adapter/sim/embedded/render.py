@@ -106,10 +106,6 @@ class _KeptLabelsFont(ImageFont.FreeTypeFont):
                 or named.get("direction") is not None or named.get("features") is not None
                 or named.get("stroke_width", 0) != 0):
             return False
-        return self.pen_on_whole_pixels(text)
-
-    def pen_on_whole_pixels(self, text: str) -> bool:
-        """Whether FreeType's own layout of `text` advances the pen by whole pixels."""
         return _kept(_pens, (self.size, text), lambda: all(
             self.getlength(text[:end], "L").is_integer()
             and self.getlength(text[end - 1], "L").is_integer()
@@ -512,9 +508,6 @@ class _Shifted:
     def polygon(self, points: list[tuple[float, float]], **kwargs: Any) -> None:
         self.draw.polygon([(x - self.left, y - self.top) for x, y in points], **kwargs)
 
-    def text(self, xy: tuple[float, float], text: str, **kwargs: Any) -> None:
-        self.draw.text((xy[0] - self.left, xy[1] - self.top), text, **kwargs)
-
     def label(self, text: str, box: Box, style: _LabelStyle, font: Any) -> None:
         """`text` in a box drawn in `style`: the kept pixels of a label drawn alike
         (`_label_patch`) pasted, else drawn here."""
@@ -559,7 +552,7 @@ _LABEL_MARGIN = 2
 
 def _text_box(draw: ImageDraw.ImageDraw, text: str, font: Any) -> tuple:
     """`draw.textbbox((0, 0), text, font=font)`, kept per font and text (Pillow's text
-    layout took ~15 us a label even with the font's boxes kept)."""
+    layout took ~10 us a label even with the font's boxes kept)."""
     return _kept(_text_boxes, (font, draw.fontmode, text),
                  lambda: draw.textbbox((0, 0), text, font=font))
 
@@ -576,13 +569,12 @@ def _label_patch(text: str, rect: Box, start: tuple[float, float], style: _Label
     pixels at any whole-pixel shift of these, and is kept by them relative to the corner
     and the mask's key. Drawn once on a clear canvas and pasted after, where drawing it
     (box, then text blended onto it) took ~75 us, a quarter of a picture drawn."""
-    if (not isinstance(font, _KeptLabelsFont) or font.layout_engine != ImageFont.Layout.BASIC
-            or min(rect[0], rect[1]) < 0):  # (int() is floor only from 0 up)
-        return None
-    # The text's mask as the font keeps it (`_KeptLabelsFont._mask_key`): this call draws
-    # greyscale text with no direction, features or stroke.
+    if not isinstance(font, _KeptLabelsFont) or min(rect[0], rect[1]) < 0:
+        return None  # (int() is floor only from 0 up)
+    # The text's mask as the font keeps it (`_KeptLabelsFont._mask_key`): a label's text is
+    # greyscale, with no direction, features or stroke.
     rounded = _start_pixels((math.modf(start[0])[0], math.modf(start[1])[0]))
-    if rounded is None or not font.pen_on_whole_pixels(text):
+    if rounded is None or not font._start_rounds_whole(text, {"mode": "L"}):
         return None
     x0, y0 = int(rect[0]), int(rect[1])
     key = (style, font.size, text, rounded, int(rect[2]) - x0, int(rect[3]) - y0,
