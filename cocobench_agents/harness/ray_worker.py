@@ -24,7 +24,7 @@ from cocobench_agents.graphs import build_planners
 from cocobench_agents.harness.batch import run_one
 from cocobench_agents.harness.episodes import PlannedEpisode
 from cocobench_agents.harness.ray_limit import LimitedPool
-from cocobench_agents.harness.runaway import NOT_STARTED, rss_bytes, silent_for
+from cocobench_agents.harness.runaway import rss_bytes
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.models.pool import needed_key_variables
 from cocobench_agents.runfolder.episode_key import EpisodeKey
@@ -63,7 +63,7 @@ class EpisodeWorker:
     def __init__(self, settings: ModelSettings, limiter: Any, holder: str,
                  backend: str, keys: KeyVariables = (), planners: Sequence[str] = ()) -> None:
         self.missing = missing_variables(keys)
-        self.last_beat, self.beat = NOT_STARTED, None
+        self.last_beat, self.beat = time.monotonic(), None
         self.pool = LimitedPool(ModelPool(settings), limiter, holder)
         if backend != EMBEDDED:
             _use_assigned_gpu()
@@ -72,14 +72,20 @@ class EpisodeWorker:
             except Exception as exc:  # noqa: BLE001 - Ray cannot carry our exception types
                 detail = " ".join(str(exc).split())  # one line: the driver shows the last
                 raise RuntimeError(f"{type(exc).__name__}: {detail}") from None
-        # Before `ready`, so that no episode's loop waits on a compile (the runaway watch
-        # counts its silence from when its first episode starts: `silent_for`).
+        # Before `ready`: the runaway watch counts a worker's silence once it has started.
         build_planners(planners)
 
-    def ready(self) -> WorkerInfo:
-        """Where this worker runs and what its node lacks (answered once it has started)."""
+    async def ready(self) -> WorkerInfo:
+        """Where this worker runs and what its node lacks (answered once it has started).
+        From here its episodes' loop beats, idle or not: the driver sends a started worker
+        its first episode and its first health question together, and an answer that came
+        before the episode reached the loop counted the worker's start (its planners'
+        compile, seconds) as an episode's silence."""
         import ray
 
+        if self.beat is None:  # on the episodes' loop (the default concurrency group's)
+            self.last_beat = time.monotonic()
+            self.beat = asyncio.create_task(self._beat())
         return WorkerInfo(ray.get_runtime_context().get_node_id(), socket.gethostname(),
                           os.getpid(), self.missing, rss_bytes(os.getpid()))
 
@@ -87,7 +93,7 @@ class EpisodeWorker:
         """This worker's memory now, and for how long its episodes' event loop has not run
         (`runaway`). Called in the `WATCH_GROUP` concurrency group, whose own thread and
         loop answer while an episode blocks the main loop."""
-        return rss_bytes(os.getpid()), silent_for(self.last_beat, time.monotonic())
+        return rss_bytes(os.getpid()), time.monotonic() - self.last_beat
 
     async def _beat(self) -> None:
         while True:
@@ -98,9 +104,6 @@ class EpisodeWorker:
                   ) -> tuple[dict[str, Any] | None, dict[str, Any]]:
         """One episode (ended as an infrastructure error after `timeout_s`) → (its trajectory
         document, or None if it failed to run; its result line)."""
-        self.last_beat = time.monotonic()
-        if self.beat is None:  # on the episodes' loop, which exists once a call runs on it
-            self.beat = asyncio.create_task(self._beat())
         record, document = await run_one(planned, TrajectoryPath(),  # type: ignore[arg-type]
                                          self.pool, timeout_s=timeout_s)
         return document, record

@@ -20,7 +20,6 @@ from typing import Any
 MEMORY, STALLED = "memory", "stalled"
 MB = 1 << 20
 LOW_MEMORY_SHARE = 0.05  # the machine is about to run out below this share of its memory
-NOT_STARTED = 0.0  # a worker's last beat before its episodes' loop first runs
 
 
 @dataclass(frozen=True)
@@ -67,15 +66,6 @@ def runaway_causes(records: Iterable[Mapping[str, Any]]) -> dict[str, int]:
     """How many of `records` were stopped as runaways, by cause."""
     causes = (str(r.get("infra_error") or "").partition(":")[0] for r in records)
     return dict(Counter(c for c in causes if c in (MEMORY, STALLED)))
-
-
-def silent_for(last_beat: float, now: float) -> float:
-    """How long a worker's episodes' loop has not run: `now` less its `last_beat` (both
-    `time.monotonic()`), and 0 before that loop first runs (`NOT_STARTED`). A worker counts
-    busy from when it is sent an episode, and that episode can reach its loop seconds later
-    (a spawned process still importing; a Ray actor's first call answered after the watch's
-    question): silence counted from the worker's start stopped innocent episodes as stalled."""
-    return 0.0 if last_beat == NOT_STARTED else now - last_beat
 
 
 def rss_bytes(pid: int) -> int | None:

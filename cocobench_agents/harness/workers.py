@@ -57,13 +57,7 @@ from cocobench_agents.harness.executor import (
     ExecutorStopped,
     ignore,
 )
-from cocobench_agents.harness.runaway import (
-    MEMORY,
-    NOT_STARTED,
-    machine_memory_low,
-    rss_bytes,
-    silent_for,
-)
+from cocobench_agents.harness.runaway import MEMORY, machine_memory_low, rss_bytes
 from cocobench_agents.models import ModelPool, ModelSettings, redact
 from cocobench_agents.runfolder.errors import RunFolderError, RunFolderWriteError
 from cocobench_agents.runfolder.folder import RunFolder
@@ -195,7 +189,7 @@ class _Supervisor:
         index = self.launched
         self.launched += 1
         parent_end, child_end = self.context.Pipe()
-        heartbeat = self.context.RawValue("d", NOT_STARTED)
+        heartbeat = self.context.RawValue("d", time.monotonic())
         settings = self.settings.model_copy(update={"max_concurrency": share(
             self.settings.max_concurrency, index % len(self.capacities), len(self.capacities))})
         process = self.context.Process(
@@ -288,7 +282,7 @@ class _Supervisor:
                              else rss - worker.start_rss)
             cause = self.runaway.breach(grown_bytes=grown[worker],
                                         in_flight=len(worker.in_flight),
-                                        silent_s=silent_for(worker.heartbeat.value, now))
+                                        silent_s=now - worker.heartbeat.value)
             if cause is not None:
                 self._kill(worker, cause)
                 grown.pop(worker)

@@ -31,6 +31,8 @@ from cocobench_agents.harness.ray_fleet import fleet_shape
 from cocobench_agents.harness.ray_limit import ConcurrencyLimiter
 from cocobench_agents.harness.ray_local import children_of
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
+from cocobench_agents.harness.ray_worker import WATCH_GROUP, EpisodeWorker
+from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.runfolder import RunFolder
 from tests.harness.ray_fake_unity import CONTROL_VARIABLE, fake_thor_backend
@@ -41,6 +43,7 @@ THOR_TASKS = sorted(SHARED_TASKS.glob("*.json"))[:4]
 needs_thor_tasks = pytest.mark.skipif(
     not THOR_TASKS, reason=f"shared CoCoBench task configs not found at {SHARED_TASKS}")
 pytestmark = pytest.mark.needs_ray
+STALL_S = 3.0  # the runaway tests' --stall-timeout
 
 
 @pytest.fixture(scope="module")
@@ -155,6 +158,25 @@ def test_a_ray_run_equals_a_local_run(ray_cluster, tmp_path):
     assert len(nodes) == 1 and len(nodes.pop()) == 56  # the one node's Ray id, in hex
     assert not any("requeued" in record for record in folder.results())
     assert not list(folder.path.glob("**/*.tmp*")), "no temporary file left"
+
+
+@pytest.mark.slow
+def test_a_started_workers_silence_is_its_loops_own(ray_cluster):
+    """A worker is asked how it is from the moment it answers `ready`, together with its
+    first episode, which may reach its loop after the answer: the silence it reports then is
+    its idle loop's, not the time since its start (which had stopped innocent episodes,
+    run alone on a fresh worker, as stalled)."""
+    worker = ray_cluster.remote(concurrency_groups={WATCH_GROUP: 1})(EpisodeWorker).options(
+        num_cpus=0.1, max_concurrency=2).remote(ModelSettings(), None, "worker-1", "embedded")
+    try:
+        ray_cluster.get(worker.ready.remote(), timeout=120)
+        time.sleep(STALL_S + 1)  # idle, long past its start
+        _rss, silent_s = ray_cluster.get(
+            worker.health.options(concurrency_group=WATCH_GROUP).remote(), timeout=60)
+        assert RunawayLimits(stall_s=STALL_S).breach(grown_bytes=None, in_flight=1,
+                                                     silent_s=silent_s) is None, silent_s
+    finally:
+        ray_cluster.kill(worker)
 
 
 @pytest.mark.slow

@@ -22,7 +22,7 @@ from cocobench_agents.harness import (
     plan_episodes,
 )
 from cocobench_agents.harness.executor import on_recorded
-from cocobench_agents.harness.runaway import NOT_STARTED, RunawayLimits, silent_for
+from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.harness.workers import share
 from cocobench_agents.models import ModelPool
 from cocobench_agents.runfolder import RunFolder
@@ -135,25 +135,6 @@ def test_a_ray_worker_builds_the_runs_planners_before_it_is_ready(monkeypatch):
     assert compiled_graph(planner) is not None
 
 
-def test_a_ray_worker_is_silent_only_once_its_first_episode_started(monkeypatch):
-    """The driver counts a worker busy from when it sends the first episode, and asks it how
-    it is at once: an answer that came before the episode reached the loop counted the
-    silence from the worker's start (its planners' compile included), and stopped innocent
-    episodes as stalled on a busy machine."""
-    import asyncio
-    import time
-
-    from cocobench_agents.harness.ray_worker import EpisodeWorker
-    from cocobench_agents.models import ModelSettings
-
-    worker = EpisodeWorker(ModelSettings(), None, "worker-1", "embedded", (), ())
-    started = time.monotonic()
-    monkeypatch.setattr(time, "monotonic", lambda: started + 600)  # long after its start
-    _rss, silent_s = asyncio.run(worker.health())
-    assert RunawayLimits(stall_s=3).breach(grown_bytes=None, in_flight=1,
-                                           silent_s=silent_s) is None
-
-
 def test_the_limits_say_what_stopped_a_worker():
     limits = RunawayLimits(episode_memory_mb=100, stall_s=5)
     mb = 1 << 20
@@ -161,8 +142,6 @@ def test_the_limits_say_what_stopped_a_worker():
     assert limits.breach(grown_bytes=250 * mb, in_flight=2, silent_s=0) == "memory"
     assert limits.breach(grown_bytes=None, in_flight=1, silent_s=6) == "stalled"
     assert limits.breach(grown_bytes=0, in_flight=0, silent_s=60) is None  # idle: no stall
-    assert silent_for(100.0, 103.5) == 3.5
-    assert silent_for(NOT_STARTED, 103.5) == 0.0  # its loop has not run yet
     assert limits.error("memory").startswith("memory: ")
     assert "--stall-timeout" in limits.error("stalled")
 
