@@ -99,7 +99,7 @@ def test_a_runaway_is_recorded_by_cause_and_the_run_goes_on(tmp_path, executor, 
                         "--out", str(out))
     assert result.returncode == 1, result.stderr
     assert "--resume --retry-errors" in result.stderr
-    assert f"stopped as runaways: 1 {cause}" in result.stderr
+    assert f"stopped as runaways: 1 {cause}" in result.stderr, result.stderr[-3000:]
     records = {r["task_id"]: r for r in _results(out)}
     assert len(records) == 4  # the other episodes are all recorded
     runaway = records.pop(RUNAWAY_TASK)
