@@ -10,20 +10,26 @@ import os
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.runfolder.errors import write_failed
+from cocobench_agents.runfolder.errors import RunFolderError, write_failed
 
 
 def cut_torn_tail(path: Path) -> tuple[bytes, bytes]:
     """Cut an incomplete last line (a kill in mid-write) off the file at `path`; its whole
-    lines and what was cut (both empty when it is absent)."""
+    lines and what was cut (both empty when it is absent). `RunFolderError` if it cannot be
+    read (a folder, no permission), `RunFolderWriteError` if the cut cannot be written."""
     try:
         data = path.read_bytes()
     except FileNotFoundError:
         return b"", b""
+    except OSError as exc:  # a folder, no permission, an I/O error
+        raise RunFolderError(f"{path}: unreadable ({exc.strerror or exc})") from None
     end = data.rfind(b"\n") + 1
     if end != len(data):
-        with open(path, "r+b") as f:
-            f.truncate(end)
+        try:
+            with open(path, "r+b") as f:
+                f.truncate(end)
+        except OSError as exc:
+            raise write_failed(path, exc) from None
     return data[:end], data[end:]
 
 

@@ -149,6 +149,20 @@ def test_a_torn_last_line_is_repaired_with_a_warning(run, capfd):
     assert RunFolder(run).scan_results().problems == []
 
 
+def test_unreadable_results_are_a_one_line_error_and_nothing_is_lost(run, capfd):
+    """A `results.jsonl` that is a folder (found by the run-folder fuzz: resume raised
+    IsADirectoryError from cutting a torn tail) is named, exit 2; nothing is removed."""
+    results = run / "results.jsonl"
+    kept = results.read_bytes()
+    results.unlink()
+    results.mkdir()
+    (results / "lines").write_bytes(kept)
+    code, err = resume(run, capfd)
+    assert code == 2 and "Traceback" not in err
+    assert err == f"cocobench: error: {results}: unreadable (Is a directory)\n"
+    assert (results / "lines").read_bytes() == kept
+
+
 def test_a_missing_trajectory_is_named_and_its_episode_runs_again(run, capfd):
     first = json.loads(lines(run)[0])
     (run / first["trajectory"]).unlink()
