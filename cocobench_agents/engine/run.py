@@ -71,7 +71,10 @@ def run(request: RunRequest, *, resume: bool = False, retry_errors: bool = False
         if lock.stale_pid:
             emit(events.Notice(f"{folder.path}: taking over the lock of pid {lock.stale_pid}, "
                                "which ended without releasing it"))
-        record = folder.open_for_resume() if resume else None
+        try:
+            record = folder.open_for_resume() if resume else None
+        except RunFolderWriteError as exc:  # a torn last line that cannot be cut off
+            raise RunFolderFailed(folder.path, exc) from None
         if not resume:  # an occupied folder is refused before any check that calls a model
             folder.check_unused()
         for warning in folder.warnings:

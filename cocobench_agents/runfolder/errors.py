@@ -15,6 +15,12 @@ class RunFolderWriteError(RuntimeError):
     it recorded stays valid, and `--resume` completes it."""
 
 
+def read_failed(path: Path, exc: OSError) -> RunFolderError:
+    """The `RunFolderError` of `path`, which `exc` could not read (a folder, no permission,
+    an I/O error)."""
+    return RunFolderError(f"{path}: unreadable ({exc.strerror or exc})")
+
+
 def write_failed(path: Path, exc: OSError) -> RunFolderWriteError:
     """The `RunFolderWriteError` of `path` that `exc` could not write."""
     return RunFolderWriteError(f"cannot write {path}: {exc.strerror or exc}")

@@ -28,7 +28,7 @@ import orjson
 
 from benchmark_adapter.trajectory import PROMPTS_FIELD, json_text, write_json_atomic
 from cocobench_agents.runfolder.episode_key import EpisodeKey, result_key
-from cocobench_agents.runfolder.errors import RunFolderError, gist, write_failed
+from cocobench_agents.runfolder.errors import RunFolderError, gist, read_failed, write_failed
 from cocobench_agents.runfolder.json_lines import (
     append_json_line,
     append_json_lines,
@@ -173,8 +173,8 @@ class RunFolder:
             record = json_text(path.read_bytes())
         except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, too deep
             raise RunFolderError(f"{path}: not a run record ({gist(exc)})") from None
-        except OSError as exc:  # a folder, no permission, an I/O error
-            raise RunFolderError(f"{path}: unreadable ({exc.strerror or exc})") from None
+        except OSError as exc:
+            raise read_failed(path, exc) from None
         if not isinstance(record, dict):
             raise RunFolderError(f"{path}: not a run record (a JSON object)")
         error = record_error(record)
@@ -323,9 +323,8 @@ class RunFolder:
                     self._scanned = identity, self._scan(results.read())
         except FileNotFoundError:
             return ResultsScan()
-        except OSError as exc:  # a folder, no permission, an I/O error
-            raise RunFolderError(f"{self.results_path}: unreadable "
-                                 f"({exc.strerror or exc})") from None
+        except OSError as exc:
+            raise read_failed(self.results_path, exc) from None
         scanned = self._scanned[1]
         # Copies of the containers (the rows themselves are shared: read-only), so that a
         # caller may change its scan, not the next one's.

@@ -10,7 +10,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from cocobench_agents.runfolder.errors import RunFolderError, write_failed
+from cocobench_agents.runfolder.errors import read_failed, write_failed
 
 
 def cut_torn_tail(path: Path) -> tuple[bytes, bytes]:
@@ -21,8 +21,8 @@ def cut_torn_tail(path: Path) -> tuple[bytes, bytes]:
         data = path.read_bytes()
     except FileNotFoundError:
         return b"", b""
-    except OSError as exc:  # a folder, no permission, an I/O error
-        raise RunFolderError(f"{path}: unreadable ({exc.strerror or exc})") from None
+    except OSError as exc:
+        raise read_failed(path, exc) from None
     end = data.rfind(b"\n") + 1
     if end != len(data):
         try:

@@ -87,6 +87,35 @@ def test_a_trajectory_that_cannot_be_written_stops_the_run(tmp_path, monkeypatch
         assert len(attempts) <= 2  # the episodes in flight (--jobs 2), not all 24
 
 
+def test_a_torn_tail_that_cannot_be_cut_stops_the_resume_and_loses_nothing(
+        tmp_path, monkeypatch, capfd):
+    """Resuming cuts a killed run's torn last line off; a results file that cannot be
+    written (no permission to a copied folder's file, a read-only disk) stops the resume
+    with the run folder's one-line message, the file as it was."""
+    out = tmp_path / "run"
+    assert main(["run", "--suite", "demo", "--model", "greedy", "--limit", "1",
+                 "--out", str(out)]) == 0
+    results = out / "results.jsonl"
+    with results.open("ab") as f:
+        f.write(b'{"torn')
+    before = results.read_bytes()
+    real_open = open
+
+    def read_only(path, mode="r", *args, **kwargs):
+        if mode == "r+b":
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return real_open(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(json_lines, "open", read_only, raising=False)
+    capfd.readouterr()
+    code = main(["run", "--out", str(out), "--resume"])
+    err = capfd.readouterr().err
+    assert code == 1 and "Traceback" not in err
+    assert f"the run stopped: cannot write {results}: Permission denied" in err
+    assert f"cocobench run --out {out} --resume" in err
+    assert results.read_bytes() == before
+
+
 def _mount_tmpfs(path: Path, size: str) -> None:
     path.mkdir()
     done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
