@@ -3,8 +3,10 @@ model call (`ask`), recorded as a decision.
 
 Never raises: a failing model becomes a `backend_error` decision, so one agent's trouble
 cannot fail a decentralized round (LangGraph fails a whole step when one branch raises). The
-exceptions that pass are `EpisodeHalt`s: a human seat's desk pausing the episode
-(`HumanTurn`), a usage limit of the harness the model runs in.
+exceptions that pass are `EpisodeHalt`s, a human seat's desk pausing the episode
+(`HumanTurn`) or a usage limit of the harness the model runs in, and the infrastructure's
+own (`node_errors.is_infrastructure_failure`): a human seat's answer log that cannot be
+read or written stops the run, as any run folder that cannot be used.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from typing import Any
 from benchmark_adapter.menu import MenuEntry
 from cocobench_agents.graphs.context import PlannerContext
 from cocobench_agents.graphs.model_calls import unrecorded
+from cocobench_agents.graphs.node_errors import is_infrastructure_failure
 from cocobench_agents.models.protocol import (
     EpisodeHalt,
     MenuOption,
@@ -68,13 +71,16 @@ async def reply_or_error(client: ModelClient, request: ModelRequest, retry: Retr
                          ) -> ModelReply | ModelError:
     """`client`'s reply to `request` under `retry`, or the error it failed with (any
     exception of a client becomes a `ModelError`). An `EpisodeHalt` passes: not a failure
-    but a person's turn or a harness's usage limit."""
+    but a person's turn or a harness's usage limit; so does the infrastructure's own
+    failure (the run folder's, from a human seat's answer log): not the model's."""
     started = time.perf_counter()
     try:
         return await retry.complete(client, request)
     except EpisodeHalt:
         raise
-    except Exception as exc:  # noqa: BLE001 - a failing client is the call's outcome
+    except Exception as exc:  # a failing client is the call's outcome
+        if is_infrastructure_failure(exc):
+            raise
         return exc if isinstance(exc, ModelError) else ModelError(
             "other", repr(exc), latency_s=time.perf_counter() - started)
 

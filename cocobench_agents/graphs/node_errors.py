@@ -30,8 +30,10 @@ _TASK_NOTE = re.compile(r"During task with name '(?P<node>[^']+)'")
 #: it on the CLI's light paths).
 _RUNNER_PACKAGES = ("langgraph", "langchain_core")
 _RUNNER_FILES = (__file__, str(Path(__file__).with_name("rounds.py")))
-#: The simulators' own exceptions (a Unity process that died) are infrastructure failures.
-_SIMULATORS = "benchmark_adapter.sim."
+#: Exceptions of these modules are the infrastructure's wherever they are raised, never the
+#: strategy's nor the model's: a simulator's (a Unity process that died) and the run folder's
+#: (a human seat's answer log that cannot be read or written).
+_INFRASTRUCTURE = ("benchmark_adapter.sim.", "cocobench_agents.runfolder.")
 FRAMES = 3  # the traceback's last frames that are shown
 LAST_NODES = 4  # how many of the last nodes a graph that never ended is named by
 
@@ -89,7 +91,7 @@ def node_failure(exc: BaseException) -> NodeFailure | None:
     if isinstance(exc, EndlessLoop):
         return endless_loop(exc.limit, exc.last_nodes, exc.graph)
     task = _TASK_NOTE.search("\n".join(getattr(exc, "__notes__", ())))
-    if task is None or type(exc).__module__.startswith(_SIMULATORS):
+    if task is None or is_infrastructure_failure(exc):
         return None
     tb = traceback.extract_tb(exc.__traceback__)
     runner = max((i for i, frame in enumerate(tb) if _is_runner(frame)), default=-1)
@@ -103,6 +105,13 @@ def node_failure(exc: BaseException) -> NodeFailure | None:
                        file=origin.filename if origin else None,
                        line=origin.lineno if origin else None,
                        frames=tuple(shown.splitlines()))
+
+
+def is_infrastructure_failure(exc: BaseException) -> bool:
+    """Whether `exc` is a simulator's or the run folder's own exception (`_INFRASTRUCTURE`):
+    it ends the episode, or stops the run, as what it is, even from inside a node or a model
+    client."""
+    return type(exc).__module__.startswith(_INFRASTRUCTURE)
 
 
 def _is_runner(frame: traceback.FrameSummary) -> bool:

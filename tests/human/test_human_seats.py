@@ -5,8 +5,10 @@ given, and replayed when a killed run resumes."""
 from __future__ import annotations
 
 import asyncio
+import errno
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -15,12 +17,14 @@ from pathlib import Path
 import pytest
 
 import cocobench_agents as cb
-from cocobench_agents.engine.errors import RequestError
+from cocobench_agents.engine.errors import RequestError, RunFolderFailed
 from cocobench_agents.harness.human_log import HUMAN_ANSWERS, LoggedDesk, answers_file
 from cocobench_agents.models import ModelConfigError, ModelPool
 from cocobench_agents.models.human import Answer, Decision
 from cocobench_agents.models.preflight import preflight
+from cocobench_agents.runfolder import json_lines
 from cocobench_agents.runfolder.episode_key import EpisodeKey
+from cocobench_agents.runfolder.errors import RunFolderError
 from cocobench_agents.runfolder.folder import RunFolder
 from tests.human.desks import TASK, OracleDesk, oracle_calls
 
@@ -94,6 +98,38 @@ def test_a_person_in_a_d1_team_is_heard_by_the_teammates(calls, tmp_path):
     lines = (out / answers_file(desk.asked[0].episode)).read_text().splitlines()
     assert len(lines) == len(desk.asked)
     assert json.loads(lines[0])["message"] == "agent one, move 1"
+
+
+def test_an_answer_log_that_cannot_be_read_stops_the_run_naming_it(calls, tmp_path):
+    """A run folder whose answer log is a folder (someone else's, damaged) stops the run
+    with the run folder's one-line error before the person is asked, and records no
+    episode as something else."""
+    out = tmp_path / "run"
+    log = out / answers_file(f"human/C0_blind/{TASK}")
+    log.mkdir(parents=True)
+    desk = OracleDesk(calls)
+    with pytest.raises(RunFolderError, match=re.escape(f"{log}: unreadable (Is a directory)")):
+        cb.run(human_request(out), desk=desk, resume=True)
+    assert desk.asked == [] and list(RunFolder(out).results()) == []
+
+
+def test_an_answer_that_cannot_be_logged_stops_the_run(calls, tmp_path, monkeypatch):
+    """A full disk when a person's answer is logged stops the run (`RunFolderFailed`, with
+    the resume command), not the seat's model failing: the answer would be asked again."""
+    write = os.write
+
+    def answer_log_full(fd, data):  # every other file still has room
+        if os.readlink(f"/proc/self/fd/{fd}").endswith(HUMAN_ANSWERS):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return write(fd, data)
+
+    monkeypatch.setattr(json_lines.os, "write", answer_log_full)
+    out = tmp_path / "run"
+    desk = OracleDesk(calls)
+    with pytest.raises(RunFolderFailed, match=r"No space left on device.*--resume"):
+        cb.run(human_request(out), desk=desk)
+    monkeypatch.undo()
+    assert len(desk.asked) == 1 and list(RunFolder(out).results()) == []
 
 
 def test_an_answer_is_logged_and_replayed_for_the_same_decision_only(tmp_path):
