@@ -114,6 +114,12 @@ class Halt:
             self.reason = error
 
 
+def worker_actor_class(ray: Any) -> Any:
+    """`EpisodeWorker` as a Ray actor class: its `health` answers on the watch's own
+    concurrency group (`WATCH_GROUP`), beside the episodes' loop."""
+    return ray.remote(concurrency_groups={WATCH_GROUP: 1})(EpisodeWorker)
+
+
 class Fleet:
     """The run's worker actors and the limiter their model calls share."""
 
@@ -121,7 +127,7 @@ class Fleet:
                  wait_s: float, halt: Halt) -> None:
         self.ray, self.spec, self.settings = ray, spec, settings
         self.run_name, self.wait_s, self.halt = run_name, wait_s, halt
-        self.actor_class = ray.remote(concurrency_groups={WATCH_GROUP: 1})(EpisodeWorker)
+        self.actor_class = worker_actor_class(ray)
         self.limiter: Any = None
         self.launched = 0
         self.starting: dict[Any, RayWorker] = {}  # the `ready` call of each → the worker

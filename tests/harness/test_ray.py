@@ -27,11 +27,11 @@ from cocobench_agents.harness import (
 )
 from cocobench_agents.harness.executor import ExecutorStarted
 from cocobench_agents.harness.ray_executor import RayExecutor
-from cocobench_agents.harness.ray_fleet import fleet_shape
+from cocobench_agents.harness.ray_fleet import fleet_shape, worker_actor_class
 from cocobench_agents.harness.ray_limit import ConcurrencyLimiter
 from cocobench_agents.harness.ray_local import children_of
 from cocobench_agents.harness.ray_session import RayUnavailable, ray_session
-from cocobench_agents.harness.ray_worker import WATCH_GROUP, EpisodeWorker
+from cocobench_agents.harness.ray_worker import WATCH_GROUP
 from cocobench_agents.harness.runaway import RunawayLimits
 from cocobench_agents.models import ModelPool, ModelSettings
 from cocobench_agents.runfolder import RunFolder
@@ -43,7 +43,7 @@ THOR_TASKS = sorted(SHARED_TASKS.glob("*.json"))[:4]
 needs_thor_tasks = pytest.mark.skipif(
     not THOR_TASKS, reason=f"shared CoCoBench task configs not found at {SHARED_TASKS}")
 pytestmark = pytest.mark.needs_ray
-STALL_S = 3.0  # the runaway tests' --stall-timeout
+STALL_S = 3.0  # as short a stall limit as the runaway tests' (--stall-timeout 3)
 
 
 @pytest.fixture(scope="module")
@@ -166,8 +166,8 @@ def test_a_started_workers_silence_is_its_loops_own(ray_cluster):
     first episode, which may reach its loop after the answer: the silence it reports then is
     its idle loop's, not the time since its start (which had stopped innocent episodes,
     run alone on a fresh worker, as stalled)."""
-    worker = ray_cluster.remote(concurrency_groups={WATCH_GROUP: 1})(EpisodeWorker).options(
-        num_cpus=0.1, max_concurrency=2).remote(ModelSettings(), None, "worker-1", "embedded")
+    worker = worker_actor_class(ray_cluster).options(num_cpus=0.1, max_concurrency=2).remote(
+        ModelSettings(), None, "worker-1", "embedded")
     try:
         ray_cluster.get(worker.ready.remote(), timeout=120)
         time.sleep(STALL_S + 1)  # idle, long past its start
