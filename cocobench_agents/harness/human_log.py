@@ -80,10 +80,13 @@ class LoggedDesk:
 
 def answers_again(line: dict[str, Any], decision: Decision) -> bool:
     """Whether a logged answer answers `decision`: the same prompt was shown (a teammate
-    that chose otherwise this time changes it) and the choice is on its menu (or DONE)."""
-    action = line.get("action_id")
+    that chose otherwise this time changes it) and the choice is on its menu (or DONE). A
+    line `log_line` did not write (its choice missing, a choice or think time of another
+    type: a damaged or forged log) answers nothing: the person is asked again."""
+    action, think_s = line.get("action_id", ""), line.get("think_s", 0.0)
     return (line.get("prompt_hash") == prompt_hash(decision.prompt)
-            and (action is None or isinstance(action, int)) and decision.accepts(action))
+            and (action is None or type(action) is int) and decision.accepts(action)
+            and type(think_s) in (int, float))  # (`type`: a JSON true is no number here)
 
 
 def answer_of(line: dict[str, Any]) -> Answer:
