@@ -41,6 +41,7 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
+import platform
 import statistics
 import time
 from pathlib import Path
@@ -61,6 +62,20 @@ def aim(condition: str, text: bool) -> int:
     if condition.endswith("_image"):
         return 500
     return 1000 if text else 5000
+
+
+def processor() -> str:
+    """The processor's name, so that figures taken on different hosts are told apart: the
+    same code ran D1_image at 320-340 steps per CPU-second on one host of this 2-core kind and
+    at 637-752 on another (docs/environments.md, "Speed")."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as cpuinfo:
+            for line in cpuinfo:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "an unknown processor"
 
 
 def resident_mb() -> float:
@@ -210,8 +225,8 @@ def main() -> None:
         memory(args.memory_source, "C0_blind", args.episodes, args.every)
     where = (f"one core (pid {os.getpid()})" if args.processes == 1 else
              f"{args.processes} processes at once on {os.cpu_count()} cores")
-    print(f"{where}, {args.steps} steps per run, median of {args.repeats} runs, source "
-          f"{args.source}")
+    print(f"{where} of {processor()}, {args.steps} steps per run, median of {args.repeats} "
+          f"runs, source {args.source}")
     for condition in args.condition or DEFAULT_CONDITIONS:
         for text in (True, False):
             task = (args.source, condition, text, args.steps, args.repeats)
