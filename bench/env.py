@@ -23,6 +23,9 @@ menu and mask), and prints medians over repeated runs:
 - reset time in milliseconds (aim: < 5 ms).
 Image conditions (``C0_image``, ``D1_image``: every step's frames rendered and decoded into
 the observation's RGB arrays) are measured too, against their own aim: >= 500 env steps/s.
+The first line names the processor and how fast the host runs a fixed Python loop: a figure
+is its host's (the same code, the same instructions a step, has run D1_image at 320-340 and
+at 637-752 steps per CPU-second on two hosts of this 2-core kind).
 
 With ``--episodes N`` it first plays N whole episodes of ``--memory-source`` (default
 cocobench-full, 897 instances drawn at random) under C0_blind and prints the process's
@@ -65,9 +68,7 @@ def aim(condition: str, text: bool) -> int:
 
 
 def processor() -> str:
-    """The processor's name, so that figures taken on different hosts are told apart: the
-    same code ran D1_image at 320-340 steps per CPU-second on one host of this 2-core kind and
-    at 637-752 on another (docs/environments.md, "Speed")."""
+    """The processor's name as the kernel reports it (a virtual machine's may be generic)."""
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as cpuinfo:
             for line in cpuinfo:
@@ -76,6 +77,19 @@ def processor() -> str:
     except OSError:
         pass
     return platform.processor() or platform.machine() or "an unknown processor"
+
+
+def python_loop_rate(iterations: int = 2_000_000) -> float:
+    """Millions of iterations per CPU-second of a fixed pure-Python loop (best of three): how
+    fast this host runs the interpreter, so that figures taken on different hosts can be set
+    side by side."""
+    best = float("inf")
+    for _ in range(3):
+        started, total = time.process_time(), 0
+        for i in range(iterations):
+            total += i * i % 7
+        best = min(best, time.process_time() - started)
+    return iterations / best / 1e6
 
 
 def resident_mb() -> float:
@@ -225,8 +239,9 @@ def main() -> None:
         memory(args.memory_source, "C0_blind", args.episodes, args.every)
     where = (f"one core (pid {os.getpid()})" if args.processes == 1 else
              f"{args.processes} processes at once on {os.cpu_count()} cores")
-    print(f"{where} of {processor()}, {args.steps} steps per run, median of {args.repeats} "
-          f"runs, source {args.source}")
+    print(f"{where} of {processor()} (a fixed Python loop: {python_loop_rate():.1f} M "
+          f"iterations per CPU-s), {args.steps} steps per run, median of {args.repeats} runs, "
+          f"source {args.source}")
     for condition in args.condition or DEFAULT_CONDITIONS:
         for text in (True, False):
             task = (args.source, condition, text, args.steps, args.repeats)
