@@ -53,6 +53,7 @@ import numpy as np
 
 from benchmark_adapter.episode import Episode
 from cocobench_agents.envs import parallel_env
+from cocobench_agents.harness.runaway import rss_bytes
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "cocobench-data" / "tasks"
 THOR_ACTIONS_PER_S = (13, 22)
@@ -93,10 +94,10 @@ def python_loop_rate(iterations: int = 2_000_000) -> float:
 
 
 def resident_mb() -> float:
-    """This process's resident memory now, in MB."""
-    import psutil
-
-    return psutil.Process().memory_info().rss / 2**20
+    """This process's resident memory now, in MB (the runaway watch's reading of /proc; nan
+    where /proc cannot tell: not Linux)."""
+    rss = rss_bytes(os.getpid())
+    return float("nan") if rss is None else rss / 2**20
 
 
 def memory(source: str, condition: str, episodes: int, every: int) -> None:

@@ -26,17 +26,11 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
-import psutil
 
 from cocobench_agents.envs import parallel_env
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from env import random_actions  # (the bench folder is no package: on the path above)
-
-
-def resident_mb() -> float:
-    """This process's resident memory now, in MB."""
-    return psutil.Process().memory_info().rss / 2**20
+from env import random_actions, resident_mb  # (the bench folder is no package: on the path above)
 
 
 def object_counts() -> collections.Counter:
